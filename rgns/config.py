@@ -1,0 +1,152 @@
+"""Load and check a workflow configuration, with errors that name the key and the value.
+
+The JSON schema (``config/schema.yaml``) types, ranges and defaults every key; the checks here
+cover what a schema cannot say: [min, max] order, polygons inside the domain, references from
+sets to geometry families, a mesh that tiles the domain.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Iterator
+
+import jsonschema
+import numpy as np
+import yaml
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+SCHEMA_PATH = REPO_ROOT / "config" / "schema.yaml"
+DEFAULT_CONFIG_PATH = REPO_ROOT / "config" / "config.yaml"
+
+
+class ConfigError(ValueError):
+    """A configuration value is missing, of the wrong type, out of range or inconsistent."""
+
+
+def load_yaml(path: str | Path) -> dict[str, Any]:
+    """Read a YAML file into a dict, naming the file if it is not a mapping."""
+    with open(path) as handle:
+        data = yaml.safe_load(handle)
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping at the top level, got {type(data).__name__}")
+    return data
+
+
+def key_path(parts: Iterator[Any] | list[Any]) -> str:
+    """Render a JSON path as ``a.b[0].c``."""
+    text = ""
+    for part in parts:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text or "<top level>"
+
+
+def _describe(error: jsonschema.ValidationError) -> str:
+    where = key_path(list(error.absolute_path))
+    if error.validator == "additionalProperties":
+        return f"config key '{where}': {error.message}"
+    if error.validator == "required":
+        return f"config key '{where}': {error.message}"
+    reason = error.message
+    if error.context:  # oneOf / anyOf: explain with the branch whose type the value has
+        matching_type = [sub for sub in error.context if sub.validator != "type"]
+        reason = jsonschema.exceptions.best_match(matching_type or error.context).message
+    return f"config key '{where}' = {error.instance!r}: {reason}"
+
+
+def schema_errors(config: dict[str, Any], schema: dict[str, Any]) -> list[str]:
+    """Every schema violation in ``config``, one readable line each."""
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = sorted(validator.iter_errors(config), key=lambda e: list(map(str, e.absolute_path)))
+    return [_describe(error) for error in errors]
+
+
+def _ranges(config: dict[str, Any]) -> Iterator[tuple[str, Any]]:
+    """Every value that may be a [min, max] range, with its key path."""
+    for fam_name, family in config["geometry"]["families"].items():
+        for k, vertex in enumerate(family["vertices"]):
+            for axis in ("x_m", "y_m"):
+                yield f"geometry.families.{fam_name}.vertices[{k}].{axis}", vertex[axis]
+    for set_name, groups in config["sets"].items():
+        for g, group in enumerate(groups):
+            yield f"sets.{set_name}[{g}].friction_mean_deg", group["friction_mean_deg"]
+    yield "random_field.friction_bounds_deg", config["random_field"]["friction_bounds_deg"]
+
+
+def as_range(value: float | list[float]) -> tuple[float, float]:
+    """A fixed number as the degenerate range (v, v); a [min, max] pair as a tuple."""
+    if isinstance(value, (int, float)):
+        return float(value), float(value)
+    return float(value[0]), float(value[1])
+
+
+def consistency_errors(config: dict[str, Any]) -> list[str]:
+    """Cross-key errors that the schema cannot express, one readable line each."""
+    from rgns.geometry import polygon_problems  # local: geometry imports nothing from here
+
+    errors: list[str] = []
+    for where, value in _ranges(config):
+        low, high = as_range(value)
+        if low > high:
+            errors.append(f"config key '{where}' = {value!r}: min {low} > max {high}")
+
+    length, height = config["domain"]["length_m"], config["domain"]["height_m"]
+    cell = config["mesh"]["cell_size_m"]
+    for name, extent in (("length_m", length), ("height_m", height)):
+        cells = extent / cell
+        if abs(cells - round(cells)) > 1e-9 * max(cells, 1.0):
+            errors.append(
+                f"config key 'domain.{name}' = {extent!r}: not a whole number of cells of "
+                f"mesh.cell_size_m = {cell!r}"
+            )
+
+    for fam_name, family in config["geometry"]["families"].items():
+        for k, vertex in enumerate(family["vertices"]):
+            for axis, limit in (("x_m", length), ("y_m", height)):
+                low, high = as_range(vertex[axis])
+                if low < 0.0 or high > limit:
+                    errors.append(
+                        f"config key 'geometry.families.{fam_name}.vertices[{k}].{axis}' = "
+                        f"{vertex[axis]!r}: outside the domain [0, {limit}] "
+                        f"(domain.{'length_m' if axis == 'x_m' else 'height_m'})"
+                    )
+        centre = np.array([[np.mean(as_range(v["x_m"])), np.mean(as_range(v["y_m"]))]
+                           for v in family["vertices"]])
+        room = config["geometry"]["runout_room_m"]
+        for problem in polygon_problems(centre, length, height, room=room, headroom=cell):
+            errors.append(
+                f"config key 'geometry.families.{fam_name}.vertices': the polygon through the "
+                f"range centres {centre.tolist()} {problem}"
+            )
+
+    families = config["geometry"]["families"]
+    for set_name, groups in config["sets"].items():
+        for g, group in enumerate(groups):
+            if group["family"] not in families:
+                errors.append(
+                    f"config key 'sets.{set_name}[{g}].family' = {group['family']!r}: no such "
+                    f"family under geometry.families (have: {', '.join(sorted(families))})"
+                )
+    return errors
+
+
+def validate_config(config: dict[str, Any], schema_path: str | Path = SCHEMA_PATH) -> dict[str, Any]:
+    """Check ``config`` against the schema and the cross-key rules, fill defaults, return it.
+
+    Schema violations are reported first, all of them and readably; only a config that passes
+    goes through ``snakemake.utils.validate``, which inserts the defaults.
+
+    Raises :class:`ConfigError` listing every problem, each naming the key and the value.
+    """
+    from snakemake.utils import validate  # fills the schema defaults in place
+
+    errors = schema_errors(config, load_yaml(schema_path))
+    if not errors:
+        validate(config, str(schema_path))
+        errors = consistency_errors(config)
+    if errors:
+        raise ConfigError("invalid configuration:\n  " + "\n  ".join(errors))
+    return config
+
+
+def load_config(path: str | Path = DEFAULT_CONFIG_PATH, schema_path: str | Path = SCHEMA_PATH) -> dict[str, Any]:
+    """Read, validate and default-fill a config file."""
+    return validate_config(load_yaml(path), schema_path)

@@ -1,0 +1,48 @@
+"""Figures (matplotlib, Agg backend): one function per figure, each writes one file."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from rgns.fields import FrictionField  # noqa: E402
+from rgns.geometry import Scene  # noqa: E402
+
+
+def plot_scenes(scenes: list[Scene], fields: list[FrictionField], path: str | Path) -> None:
+    """Polygons and particles coloured by friction angle, one panel per realization."""
+    columns = 2 if len(scenes) > 1 else 1
+    rows = int(np.ceil(len(scenes) / columns))
+    first = scenes[0]
+    aspect = first.domain_height_m / first.domain_length_m
+    figure, axes = plt.subplots(
+        rows, columns, figsize=(6.0 * columns, 6.0 * columns * aspect * rows / columns + 1.0),
+        squeeze=False, constrained_layout=True,
+    )
+    low = min(float(f.friction_deg.min()) for f in fields)
+    high = max(float(f.friction_deg.max()) for f in fields)
+    for axis, scene, field in zip(axes.flat, scenes, fields):
+        points = axis.scatter(
+            scene.positions[:, 0], scene.positions[:, 1], c=field.friction_deg, s=2.0,
+            cmap="viridis", vmin=low, vmax=high, linewidths=0,
+        )
+        outline = np.vstack([scene.vertices, scene.vertices[:1]])
+        axis.plot(outline[:, 0], outline[:, 1], color="black", linewidth=0.8)
+        axis.set_xlim(0, scene.domain_length_m)
+        axis.set_ylim(0, scene.domain_height_m)
+        axis.set_aspect("equal")
+        axis.set_title(
+            f"{scene.set_name} {scene.index:04d} ({scene.family}): mean {field.mean_deg:.1f} deg",
+            fontsize=9,
+        )
+        axis.set_xlabel("x (m)")
+        axis.set_ylabel("y (m)")
+    for axis in list(axes.flat)[len(scenes):]:
+        axis.set_visible(False)
+    figure.colorbar(points, ax=axes, label="friction angle (deg)", shrink=0.8)
+    figure.savefig(path, dpi=120)
+    plt.close(figure)

@@ -1,0 +1,61 @@
+# Helpers shared by the rule files: which realizations exist, and the config slice each rule
+# gets through params (so a config change re-runs only the rules that read the changed keys).
+from rgns.sets import realization_group, realization_ids
+
+SETS = list(config["sets"])
+
+
+wildcard_constraints:
+    set="|".join(SETS),
+    index=r"[0-9]+",
+
+
+def set_ids(set_name):
+    """File-name ids of every realization of a set."""
+    return realization_ids(config["sets"][set_name])
+
+
+def preview_ids(set_name, count=6):
+    """Up to ``count`` realization ids spread evenly over a set (so every group shows)."""
+    ids = set_ids(set_name)
+    step = max(1, -(-len(ids) // count))
+    return ids[::step][:count]
+
+
+def group_of(wildcards):
+    """The config group (family + field statistics) of one realization."""
+    return realization_group(config["sets"][wildcards.set], int(wildcards.index))[1]
+
+
+def geometry_params(wildcards):
+    """Everything the geometry of one realization depends on, and nothing else."""
+    family_name = group_of(wildcards)["family"]
+    geometry = config["geometry"]
+    return {
+        "seed": config["seed"],
+        "family_name": family_name,
+        "family": geometry["families"][family_name],
+        "domain": config["domain"],
+        "mesh": config["mesh"],
+        "geometry": {key: geometry[key] for key in ("runout_room_m", "max_draws")},
+    }
+
+
+FIELD_KEYS = ("friction_mean_deg", "friction_std_deg", "correlation_length_x_m", "correlation_length_y_m")
+
+
+def field_params(wildcards):
+    """Everything the friction field of one realization depends on, beyond its scene."""
+    group = group_of(wildcards)
+    return {
+        "seed": config["seed"],
+        "group": {key: group[key] for key in FIELD_KEYS},
+        "random_field": config["random_field"],
+        "domain": config["domain"],
+        "cell_size_m": config["mesh"]["cell_size_m"],
+    }
+
+
+def all_scene_files(kind, extension):
+    """Every realization's file of one kind ('geometry' or 'fields') over all sets."""
+    return [f"results/{kind}/{name}/{i}.{extension}" for name in SETS for i in set_ids(name)]
