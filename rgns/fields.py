@@ -8,6 +8,7 @@ for the same Z flattened row-major. Arrays are indexed [x, y].
 """
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass
 from typing import Any
 
@@ -216,7 +217,7 @@ def read_field(path: str) -> FrictionField:
                 method=str(data["method"]),
                 clipped_fraction=float(data["clipped_fraction"]),
             )
-    except (OSError, ValueError, KeyError) as error:
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as error:
         raise ValueError(f"{path}: not a readable field file ({error})") from error
     if field.friction_grid_deg.shape != grid.shape:
         raise ValueError(f"{path}: friction grid {field.friction_grid_deg.shape} does not match the grid {grid.shape}")

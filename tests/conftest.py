@@ -1,0 +1,28 @@
+"""Shared fixtures: the repository's configs, loaded and validated."""
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+
+from rgns.config import load_config, load_yaml
+
+REPO = Path(__file__).resolve().parent.parent
+TINY_CONFIG = REPO / "tests" / "data" / "tiny.yaml"
+
+
+@pytest.fixture(scope="session")
+def default_config() -> dict:
+    return load_config(REPO / "config" / "config.yaml")
+
+
+@pytest.fixture(scope="session")
+def paper_config() -> dict:
+    return load_config(REPO / "config" / "paper.yaml")
+
+
+@pytest.fixture()
+def raw_default_config() -> dict:
+    """The default config as written, before defaults are filled: a copy to break."""
+    return copy.deepcopy(load_yaml(REPO / "config" / "config.yaml"))

@@ -1,0 +1,98 @@
+"""Config validation: good configs pass with defaults filled; bad ones name the key and value."""
+from __future__ import annotations
+
+import pytest
+
+from rgns.config import ConfigError, load_yaml, validate_config
+from rgns.sets import realization_group, set_size
+from conftest import REPO
+
+
+def test_default_and_paper_configs_validate(default_config, paper_config):
+    assert default_config["random_field"]["method"] == "kronecker"
+    assert set_size(paper_config["sets"]["train"]) == 1000
+    assert set_size(paper_config["sets"]["valid"]) == 50
+    assert [set_size(paper_config["sets"][f"case{k}"]) for k in range(1, 5)] == [250] * 4
+    assert (paper_config["domain"]["length_m"], paper_config["domain"]["height_m"]) == (240.0, 60.0)
+    assert paper_config["mesh"]["cell_size_m"] == 2.0
+
+
+def test_omitted_sections_get_the_schema_defaults(raw_default_config):
+    for section in ("domain", "mesh", "random_field", "seed"):
+        raw_default_config.pop(section)
+    config = validate_config(raw_default_config)
+    assert config["mesh"] == {"cell_size_m": 1.0, "particles_per_cell": 2}
+    assert config["random_field"]["friction_bounds_deg"] == [5.0, 60.0]
+    assert config["geometry"]["max_draws"] == 100
+    assert isinstance(config["seed"], int)
+
+
+def test_realizations_are_numbered_through_the_groups(default_config):
+    groups = default_config["sets"]["train"]
+    assert realization_group(groups, 0)[1]["family"] == "slope"
+    assert realization_group(groups, 5)[1]["family"] == "slope"
+    assert realization_group(groups, 6)[1]["family"] == "embankment"
+    with pytest.raises(IndexError):
+        realization_group(groups, 12)
+
+
+def _set(config, path, value):
+    node = config
+    for part in path[:-1]:
+        node = node[part]
+    node[path[-1]] = value
+
+
+BAD = [
+    (("domain", "width_m"), 5.0, r"'domain'.*'width_m' was unexpected"),
+    (("sets", "train", 0, "correlation_length_x_m"), -5.0, r"'sets.train\[0\].correlation_length_x_m' = -5.0"),
+    (("sets", "case2", 0, "correlation_length_y_m"), 0.0, r"'sets.case2\[0\].correlation_length_y_m' = 0.0"),
+    (("sets", "case1", 0, "friction_std_deg"), 0.0, r"'sets.case1\[0\].friction_std_deg' = 0.0"),
+    (("sets", "case1", 0, "friction_std_deg"), -2.0, r"'sets.case1\[0\].friction_std_deg' = -2.0"),
+    (("sets", "case4", 0, "friction_mean_deg"), 95.0, r"'sets.case4\[0\].friction_mean_deg' = 95.0"),
+    (("sets", "case4", 0, "friction_mean_deg"), 0.0, r"'sets.case4\[0\].friction_mean_deg' = 0.0"),
+    (("sets", "train", 1, "friction_mean_deg"), [10.0, 95.0], r"'sets.train\[1\].friction_mean_deg' = \[10.0, 95.0\]: 95.0 is greater than or equal to the maximum of 90"),
+    (("sets", "train", 1, "friction_mean_deg"), [35.0, 20.0], r"'sets.train\[1\].friction_mean_deg' = \[35.0, 20.0\]: min 35.0 > max 20.0"),
+    (("geometry", "families", "slope", "vertices", 1, "x_m"), [30.0, 24.0], r"'geometry.families.slope.vertices\[1\].x_m' = \[30.0, 24.0\]: min 30.0 > max 24.0"),
+    (("geometry", "families", "slope", "vertices", 1, "x_m"), [28.0, 95.0], r"'geometry.families.slope.vertices\[1\].x_m' = \[28.0, 95.0\]: outside the domain"),
+    (("geometry", "families", "column", "vertices", 2, "y_m"), 25.0, r"'geometry.families.column.vertices\[2\].y_m' = 25.0: outside the domain"),
+    (("geometry", "families", "column", "vertices", 1, "x_m"), -3.0, r"'geometry.families.column.vertices\[1\].x_m' = -3.0: outside the domain"),
+    (("sets", "case3", 0, "family"), "cliff", r"'sets.case3\[0\].family' = 'cliff': no such family"),
+    (("sets", "case3", 0, "count"), 0, r"'sets.case3\[0\].count' = 0"),
+    (("domain", "length_m"), 80.5, r"'domain.length_m' = 80.5: not a whole number of cells"),
+    (("mesh", "cell_size_m"), "2 m", r"'mesh.cell_size_m' = '2 m': '2 m' is not of type 'number'"),
+    (("random_field", "method"), "fft", r"'random_field.method' = 'fft'"),
+    (("random_field", "friction_bounds_deg"), [40.0, 10.0], r"'random_field.friction_bounds_deg' = \[40.0, 10.0\]: min 40.0 > max 10.0"),
+    (("geometry", "runout_room_m"), 60.0, r"'geometry.families.slope.vertices'.*right wall"),
+]
+
+
+@pytest.mark.parametrize("path, value, message", BAD, ids=[".".join(map(str, b[0])) + "=" + str(b[1]) for b in BAD])
+def test_a_bad_value_fails_with_a_message_naming_key_and_value(raw_default_config, path, value, message):
+    _set(raw_default_config, path, value)
+    with pytest.raises(ConfigError, match=message):
+        validate_config(raw_default_config)
+
+
+def test_a_clockwise_family_fails_naming_the_family(raw_default_config):
+    raw_default_config["geometry"]["families"]["embankment"]["vertices"].reverse()
+    with pytest.raises(ConfigError, match=r"'geometry.families.embankment.vertices'.*counter-clockwise"):
+        validate_config(raw_default_config)
+
+
+def test_a_config_without_a_training_set_fails(raw_default_config):
+    del raw_default_config["sets"]["train"]
+    with pytest.raises(ConfigError, match=r"'sets': 'train' is a required property"):
+        validate_config(raw_default_config)
+
+
+def test_every_error_is_reported_at_once(raw_default_config):
+    _set(raw_default_config, ("sets", "case1", 0, "friction_std_deg"), -1.0)
+    _set(raw_default_config, ("sets", "case2", 0, "correlation_length_x_m"), -1.0)
+    with pytest.raises(ConfigError) as error:
+        validate_config(raw_default_config)
+    assert "case1[0].friction_std_deg" in str(error.value) and "case2[0].correlation_length_x_m" in str(error.value)
+
+
+def test_the_tiny_test_config_is_valid():
+    validate_config(load_yaml(REPO / "tests" / "data" / "tiny.yaml"))

@@ -1,0 +1,79 @@
+"""The real Snakemake workflow on the tiny config: DAG, bad-config stop, targeted reruns."""
+from __future__ import annotations
+
+import copy
+
+import pytest
+
+from rgns.config import load_yaml
+from rgns.fields import read_field
+from rgns.geometry import read_scene
+from conftest import REPO, TINY_CONFIG
+from workflow_helpers import scheduled, snakemake, write_config
+
+pytestmark = pytest.mark.workflow
+
+
+def test_dry_run_of_the_default_config_prints_the_dag(tmp_path):
+    jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map"))
+    config = load_yaml(REPO / "config" / "config.yaml")
+    realizations = sum(group["count"] for groups in config["sets"].values() for group in groups)
+    assert jobs == {"geometry": realizations, "random_field": realizations,
+                    "scene_preview": len(config["sets"]), "hazard_map": 1}
+
+
+def test_a_bad_config_stops_before_any_job_runs_naming_key_and_value(tmp_path):
+    config = load_yaml(TINY_CONFIG)
+    config["sets"]["train"][0]["correlation_length_x_m"] = -8.0
+    result = snakemake(tmp_path, "--cores", "1", "hazard_map", config=write_config(tmp_path / "bad.yaml", config))
+    assert result.returncode != 0
+    assert "'sets.train[0].correlation_length_x_m' = -8.0" in result.stderr + result.stdout
+    assert not (tmp_path / "results").exists()
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """The tiny workflow run to completion once, for the tests that change its config."""
+    workdir = tmp_path_factory.mktemp("tiny")
+    config = load_yaml(TINY_CONFIG)
+    path = write_config(workdir / "config.yaml", config)
+    result = snakemake(workdir, "--cores", "2", "hazard_map", config=path)
+    assert result.returncode == 0, result.stderr
+    return workdir, config
+
+
+def test_the_tiny_workflow_writes_scenes_fields_and_previews(built):
+    workdir, config = built
+    scene = read_scene(workdir / "results" / "geometry" / "case1" / "0000.json")
+    field = read_field(str(workdir / "results" / "fields" / "case1" / "0000.npz"))
+    assert scene.family == "column" and len(scene.positions) == len(field.friction_deg) == 6 * 5 * 4
+    assert field.grid.shape == (40, 10)
+    assert (workdir / "results" / "plots" / "train" / "scenes.png").stat().st_size > 10_000
+    assert scheduled(snakemake(workdir, "-n", "hazard_map", config=workdir / "config.yaml")) == {}
+
+
+def test_changing_a_random_field_key_reruns_fields_but_not_geometry(built, tmp_path):
+    workdir, config = built
+    changed = copy.deepcopy(config)
+    changed["sets"]["train"][0]["correlation_length_y_m"] = 2.0
+    jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", changed)))
+    assert "geometry" not in jobs
+    assert jobs["random_field"] == 2  # the two train realizations, nothing else
+    assert jobs["scene_preview"] == 1
+
+
+def test_changing_the_field_method_reruns_every_field_but_no_geometry(built, tmp_path):
+    workdir, config = built
+    changed = copy.deepcopy(config)
+    changed["random_field"] = {"method": "cholesky"}
+    jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", changed)))
+    assert "geometry" not in jobs and jobs["random_field"] == 4
+
+
+def test_changing_a_geometry_key_reruns_geometry_and_its_fields(built, tmp_path):
+    workdir, config = built
+    changed = copy.deepcopy(config)
+    changed["geometry"]["families"]["column"]["vertices"][1]["x_m"] = 7.0
+    changed["geometry"]["families"]["column"]["vertices"][2]["x_m"] = 7.0
+    jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", changed)))
+    assert jobs["geometry"] == 1 and jobs["random_field"] == 1  # case1's one column

@@ -1,0 +1,43 @@
+"""Run the real workflow with snakemake in a scratch directory and read what it scheduled."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def snakemake(workdir: Path, *args: str, config: Path | None = None, timeout: int = 900) -> subprocess.CompletedProcess:
+    """``snakemake`` on the repository's Snakefile in ``workdir`` (targets go in ``args``)."""
+    command = [sys.executable, "-m", "snakemake", "--snakefile", str(REPO / "Snakefile"),
+               "--directory", str(workdir), *args]
+    if config is not None:
+        command += ["--configfile", str(config)]
+    return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+
+
+def scheduled(result: subprocess.CompletedProcess) -> dict[str, int]:
+    """Rule -> job count from a dry run's 'Job stats' table (empty when nothing is to be done)."""
+    output = result.stdout + result.stderr
+    assert result.returncode == 0, output
+    table = output.split("Job stats:", 1)
+    if len(table) == 1:
+        assert "Nothing to be done" in output, output
+        return {}
+    counts = {}
+    for line in table[1].splitlines()[3:]:
+        match = re.match(r"^(\w+)\s+(\d+)$", line.strip())
+        if not match:
+            break
+        counts[match.group(1)] = int(match.group(2))
+    counts.pop("total", None)
+    return counts
+
+
+def write_config(path: Path, config: dict) -> Path:
+    path.write_text(yaml.safe_dump(config, sort_keys=False))
+    return path
