@@ -143,16 +143,18 @@ def realize_fields(
     grid: FieldGrid,
     method: str,
     bounds_deg: tuple[float, float],
+    sampler: KroneckerSampler | CholeskySampler | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unclipped and clipped friction grids [B, nx, ny] and means [B] of realizations ``indices``.
 
     Every realization draws from its own stream, so the result for index i does not depend on
-    which other indices are in the batch.
+    which other indices are in the batch. Pass ``sampler`` to reuse a factorisation across calls.
     """
     draws = [draw_mean_and_normals(seed, set_name, i, group["friction_mean_deg"], grid.shape) for i in indices]
     means = np.array([mean for mean, _ in draws])
     normals = np.stack([z for _, z in draws])
-    sampler = make_sampler(method, grid, group["correlation_length_x_m"], group["correlation_length_y_m"])
+    if sampler is None:
+        sampler = make_sampler(method, grid, group["correlation_length_x_m"], group["correlation_length_y_m"])
     raw = means[:, None, None] + group["friction_std_deg"] * sampler.correlate(normals)
     return raw, np.clip(raw, bounds_deg[0], bounds_deg[1]), means
 
