@@ -24,14 +24,30 @@ validate_config(config, os.path.join(workflow.basedir, "config/schema.yaml"))
 include: "rules/common.smk"
 include: "rules/geometry.smk"
 include: "rules/fields.smk"
+include: "rules/mpm.smk"
+include: "rules/dataset.smk"
 
 
 rule hazard_map:
-    """Everything built so far for the hazard map: all scenes and fields, and their previews."""
+    """Everything built so far for the hazard map: scenes, fields, previews, MPM case directories."""
     input:
         all_scene_files("geometry", "json"),
         all_scene_files("fields", "npz"),
         expand("results/plots/{set}/scenes.png", set=SETS),
+        [f"results/mpm/{name}/{i}/case" for name in SETS for i in set_ids(name)],
+
+
+rule dataset:
+    """MPM trajectories of every set, packed, and the train/valid export for geoelements/gns."""
+    input:
+        expand("results/dataset/{set}.h5", set=SETS),
+        "results/dataset/gns/metadata.json",
+
+
+rule paraview:
+    """ParaView time series of the previewed realizations of every set."""
+    input:
+        [f"results/paraview/{name}/{i}" for name in SETS for i in preview_ids(name)],
 
 
 rule all:

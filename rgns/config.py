@@ -117,6 +117,16 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
                 f"range centres {centre.tolist()} {problem}"
             )
 
+    mpm = config["mpm"]
+    for name, numerator, denominator in (
+        ("frame_interval_s", mpm["frame_interval_s"], mpm["dt_s"]),
+        ("duration_s", mpm["duration_s"], mpm["frame_interval_s"]),
+    ):
+        ratio = numerator / denominator
+        if abs(ratio - round(ratio)) > 1e-6 * ratio:
+            other = "dt_s" if name == "frame_interval_s" else "frame_interval_s"
+            errors.append(f"config key 'mpm.{name}' = {numerator!r}: not a whole number of mpm.{other} = {denominator!r}")
+
     families = config["geometry"]["families"]
     for set_name, groups in config["sets"].items():
         for g, group in enumerate(groups):

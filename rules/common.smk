@@ -59,3 +59,21 @@ def field_params(wildcards):
 def all_scene_files(kind, extension):
     """Every realization's file of one kind ('geometry' or 'fields') over all sets."""
     return [f"results/{kind}/{name}/{i}.{extension}" for name in SETS for i in set_ids(name)]
+
+
+CASE_KEYS_EXCLUDED = ("engine", "cbgeo")
+
+
+def mpm_input_params(wildcards):
+    """The soil, boundary and time-stepping settings a case directory is written from."""
+    return {key: value for key, value in config["mpm"].items() if key not in CASE_KEYS_EXCLUDED}
+
+
+def mpm_run_params(wildcards):
+    """The engine and all MPM settings (recorded as the trajectory's provenance)."""
+    return {"mpm": config["mpm"], "compression": config["dataset"]["compression"]}
+
+
+def set_trajectories(wildcards):
+    """Every realization's trajectory file of one set."""
+    return [f"results/mpm/{wildcards.set}/{i}/trajectory.h5" for i in set_ids(wildcards.set)]

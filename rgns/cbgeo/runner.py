@@ -1,0 +1,99 @@
+"""Run the CB-Geo ``mpm`` binary on a case directory and turn its output into a trajectory.
+
+The case is copied into a scratch directory so the input stays untouched; the raw per-step files
+(each ≥ 4 MB) are converted right after the run and deleted unless asked to keep them.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rgns.cbgeo import writer as names
+from rgns.cbgeo.case import Case, read_case
+from rgns.cbgeo.output import OutputError, read_frames
+from rgns.trajectories import SOIL, Trajectory
+
+
+class MPMRunError(RuntimeError):
+    """An MPM run could not start, failed, or produced unusable output; names the realization."""
+
+
+def find_binary(name_or_path: str, label: str) -> str:
+    """The path of the CB-Geo executable, or an error saying where it was looked for."""
+    if os.sep in name_or_path:
+        if os.access(name_or_path, os.X_OK) and Path(name_or_path).is_file():
+            return name_or_path
+        raise MPMRunError(f"{label}: CB-Geo binary {name_or_path!r} (mpm.cbgeo.binary) does not exist or is not executable")
+    found = shutil.which(name_or_path)
+    if found is None:
+        raise MPMRunError(
+            f"{label}: CB-Geo binary {name_or_path!r} not found on PATH; install CB-Geo MPM "
+            "(https://www.cb-geo.com/mpm) and put `mpm` on PATH or set mpm.cbgeo.binary, or use mpm.engine: embedded"
+        )
+    return found
+
+
+def _failure_reason(log_path: Path) -> str:
+    text = log_path.read_text(errors="replace") if log_path.exists() else ""
+    if "Particle outside the mesh" in text:
+        return "a particle left the mesh (CB-Geo's sign of a numerical blow-up or a too-small domain)"
+    tail = [line for line in text.splitlines() if line.strip()][-3:]
+    return "last output: " + " | ".join(tail) if tail else "no output"
+
+
+def run_cbgeo(case_dir: str | Path, scratch_dir: str | Path, log_path: str | Path, options: dict[str, Any],
+              label: str) -> tuple[Case, Path, float]:
+    """Run ``mpm`` on a copy of ``case_dir``; returns the case, the raw results dir and wall time."""
+    binary = find_binary(options["binary"], label)
+    case = read_case(case_dir)
+    scratch_dir, log_path = Path(scratch_dir), Path(log_path)
+    if scratch_dir.exists():
+        shutil.rmtree(scratch_dir)
+    shutil.copytree(case_dir, scratch_dir)
+    env = dict(os.environ)
+    if options["threads"] > 1:
+        env["OMP_WAIT_POLICY"] = "passive"
+    command = [binary, "-f", f"{scratch_dir.resolve()}/", "-i", names.INPUT_JSON, "-p", str(options["threads"])]
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    with open(log_path, "w") as log:
+        log.write("$ " + " ".join(command) + "\n")
+        log.flush()
+        try:
+            status = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, env=env,
+                                    timeout=options["timeout_s"]).returncode
+        except subprocess.TimeoutExpired:
+            raise MPMRunError(f"{label}: CB-Geo ran past mpm.cbgeo.timeout_s = {options['timeout_s']} s; log: {log_path}")
+    elapsed = time.perf_counter() - start
+    if status != 0:
+        raise MPMRunError(f"{label}: CB-Geo mpm exited with status {status}: {_failure_reason(log_path)}; log: {log_path}")
+    return case, scratch_dir / names.RESULTS_PATH / names.UUID, elapsed
+
+
+def trajectory_from_cbgeo(case: Case, results_dir: Path, label: str, provenance: dict[str, Any]) -> Trajectory:
+    """Convert a finished run's step files into a trajectory (exact φ from the case)."""
+    try:
+        frames = read_frames(results_dir, len(case.positions))
+    except OutputError as error:
+        raise MPMRunError(f"{label}: {error}") from error
+    meta = case.meta
+    return Trajectory(
+        positions=frames.positions,
+        time_s=(frames.steps + 1) * meta["dt_s"],
+        particle_type=np.full(len(case.positions), SOIL),
+        friction_deg=case.friction_deg,
+        volume_m2=case.volumes,
+        mass_kg=case.volumes * case.density_kg_m3,
+        frame_interval_s=meta["frame_interval_s"],
+        bounds=np.array([[0.0, meta["domain_length_m"]], [0.0, meta["domain_height_m"]]]),
+        engine="cbgeo",
+        set_name=meta["set_name"],
+        index=meta["index"],
+        provenance=provenance,
+    )
