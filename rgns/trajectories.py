@@ -13,6 +13,7 @@ differences of consecutive frames, never divided by the MPM time step.
 from __future__ import annotations
 
 import json
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Iterator
@@ -123,15 +124,25 @@ def _read_group(group: h5py.Group, where: str) -> Trajectory:
         raise TrajectoryError(f"{where}: {error}") from error
 
 
-def write_trajectory(path: str | Path, trajectory: Trajectory, compression: str = "gzip") -> None:
-    """Write one realization's trajectory file (atomically: a partial file never has the name)."""
+@contextmanager
+def _atomic_h5(path: str | Path) -> Iterator[h5py.File]:
+    """An HDF5 file written under a temporary name and renamed only when complete."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_suffix(path.suffix + ".partial")
-    with h5py.File(partial, "w") as handle:
-        handle.attrs["format_version"] = FORMAT_VERSION
+    try:
+        with h5py.File(partial, "w") as handle:
+            handle.attrs["format_version"] = FORMAT_VERSION
+            yield handle
+        partial.replace(path)
+    finally:
+        partial.unlink(missing_ok=True)
+
+
+def write_trajectory(path: str | Path, trajectory: Trajectory, compression: str = "gzip") -> None:
+    """Write one realization's trajectory file (atomically: a partial file never has the name)."""
+    with _atomic_h5(path) as handle:
         _write_group(handle, trajectory, compression)
-    partial.replace(path)
 
 
 def read_trajectory(path: str | Path) -> Trajectory:
@@ -186,12 +197,8 @@ def pack(paths: list[str | Path], out_path: str | Path, set_name: str, compressi
     """Pack realization files into one set file with motion statistics; returns the statistics."""
     if not paths:
         raise TrajectoryError(f"set {set_name}: nothing to pack")
-    out_path = Path(out_path)
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    partial = out_path.with_suffix(out_path.suffix + ".partial")
     first = read_trajectory(paths[0])
-    with h5py.File(partial, "w") as handle:
-        handle.attrs["format_version"] = FORMAT_VERSION
+    with _atomic_h5(out_path) as handle:
         handle.attrs["set_name"] = set_name
         handle.attrs["frame_interval_s"] = first.frame_interval_s
         handle.attrs["bounds"] = first.bounds
@@ -213,7 +220,6 @@ def pack(paths: list[str | Path], out_path: str | Path, set_name: str, compressi
         for name, value in vars(statistics).items():
             stats_group.create_dataset(name, data=value)
         stats_group.attrs["units"] = "per frame: m/frame and m/frame^2"
-    partial.replace(out_path)
     return statistics
 
 

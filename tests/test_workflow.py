@@ -18,7 +18,7 @@ def test_dry_run_of_the_default_config_prints_the_dag(tmp_path):
     jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map"))
     config = load_yaml(REPO / "config" / "config.yaml")
     realizations = sum(group["count"] for groups in config["sets"].values() for group in groups)
-    assert jobs == {"geometry": realizations, "random_field": realizations,
+    assert jobs == {"geometry": realizations, "random_field": realizations, "mpm_input": realizations,
                     "scene_preview": len(config["sets"]), "hazard_map": 1}
 
 
@@ -60,6 +60,12 @@ def test_changing_a_random_field_key_reruns_fields_but_not_geometry(built, tmp_p
     assert "geometry" not in jobs
     assert jobs["random_field"] == 2  # the two train realizations, nothing else
     assert jobs["scene_preview"] == 1
+
+
+def test_the_dataset_target_adds_runs_packing_and_export(tmp_path):
+    jobs = scheduled(snakemake(tmp_path, "-n", "dataset", config=TINY_CONFIG))
+    assert jobs["mpm_run"] == jobs["mpm_input"] == 4
+    assert jobs["pack"] == 3 and jobs["gns_export"] == 1
 
 
 def test_changing_the_field_method_reruns_every_field_but_no_geometry(built, tmp_path):

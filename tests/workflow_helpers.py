@@ -41,3 +41,11 @@ def scheduled(result: subprocess.CompletedProcess) -> dict[str, int]:
 def write_config(path: Path, config: dict) -> Path:
     path.write_text(yaml.safe_dump(config, sort_keys=False))
     return path
+
+
+def fake_mpm_binary(directory: Path) -> Path:
+    """An executable ``mpm`` that runs tests/fake_mpm.py with this interpreter."""
+    binary = directory / "mpm"
+    binary.write_text(f"#!/bin/sh\nexec {sys.executable} {REPO / 'tests' / 'fake_mpm.py'} \"$@\"\n")
+    binary.chmod(0o755)
+    return binary

@@ -1,0 +1,113 @@
+"""Running CB-Geo: failures name the realization, finished realizations are kept.
+
+These use tests/fake_mpm.py, a stand-in with CB-Geo's command line and output layout, so they
+run everywhere; tests/test_cbgeo_real.py runs the real binary when it is installed.
+"""
+from __future__ import annotations
+
+import copy
+import shutil
+
+import numpy as np
+import pytest
+
+from rgns.cbgeo.runner import MPMRunError, run_cbgeo, trajectory_from_cbgeo
+from rgns.cbgeo.writer import write_case
+from rgns.config import load_yaml
+from rgns.engines import simulate
+from rgns.fields import FieldGrid, friction_field
+from rgns.geometry import build_scene
+from rgns.trajectories import read_trajectory
+from conftest import TINY_CONFIG
+from workflow_helpers import fake_mpm_binary, scheduled, snakemake, write_config
+
+LABEL = "train realization 0001"
+
+
+@pytest.fixture()
+def case_dir(tmp_path, default_config):
+    config = copy.deepcopy(default_config)
+    config["mpm"]["duration_s"] = 0.25
+    scene = build_scene("train", 1, "slope", config["geometry"]["families"]["slope"], config["domain"],
+                        config["mesh"], config["geometry"], config["seed"])
+    grid = FieldGrid.covering(config["domain"]["length_m"], config["domain"]["height_m"], 1.0)
+    field = friction_field(config["seed"], "train", 1, config["sets"]["train"][0], grid, "kronecker", (5.0, 60.0),
+                           scene.positions)
+    return write_case(tmp_path / "case", scene, field, config["mpm"]), config
+
+
+def _options(binary, **overrides):
+    return {"binary": str(binary), "threads": 1, "keep_raw": False, "timeout_s": 60, **overrides}
+
+
+def test_a_missing_binary_is_reported_naming_the_realization(case_dir, tmp_path):
+    case, _ = case_dir
+    with pytest.raises(MPMRunError, match=r"train realization 0001: CB-Geo binary 'no-such-mpm' not found on PATH"):
+        run_cbgeo(case, tmp_path / "scratch", tmp_path / "log", _options("no-such-mpm"), LABEL)
+    with pytest.raises(MPMRunError, match=r"train realization 0001: .*/nowhere/mpm.*does not exist"):
+        run_cbgeo(case, tmp_path / "scratch", tmp_path / "log", _options(tmp_path / "nowhere" / "mpm"), LABEL)
+
+
+def test_an_aborted_run_is_reported_with_the_reason_and_its_log(case_dir, tmp_path, monkeypatch):
+    case, _ = case_dir
+    monkeypatch.setenv("FAKE_MPM_ABORT", "1")
+    with pytest.raises(MPMRunError, match=r"train realization 0001: CB-Geo mpm exited with status 134: a particle left the mesh"):
+        run_cbgeo(case, tmp_path / "scratch", tmp_path / "run.log", _options(fake_mpm_binary(tmp_path)), LABEL)
+    assert "Particle outside the mesh" in (tmp_path / "run.log").read_text()
+
+
+def test_a_finished_run_converts_sorting_particles_by_id(case_dir, tmp_path):
+    case, config = case_dir
+    loaded, raw, _ = run_cbgeo(case, tmp_path / "scratch", tmp_path / "log", _options(fake_mpm_binary(tmp_path)), LABEL)
+    trajectory = trajectory_from_cbgeo(loaded, raw, LABEL, {})
+    frames = round(config["mpm"]["duration_s"] / config["mpm"]["frame_interval_s"])
+    assert trajectory.positions.shape == (frames, len(loaded.positions), 2)
+    np.testing.assert_allclose(trajectory.positions[0], loaded.positions, atol=1e-5)  # the fake writes ids reversed
+    np.testing.assert_allclose(trajectory.positions[-1, :, 0] - trajectory.positions[0, :, 0], 0.01 * (frames - 1), rtol=1e-4)
+    np.testing.assert_allclose(np.diff(trajectory.time_s), config["mpm"]["frame_interval_s"])
+
+
+def test_a_truncated_output_file_is_reported_naming_the_realization_and_file(case_dir, tmp_path):
+    case, _ = case_dir
+    loaded, raw, _ = run_cbgeo(case, tmp_path / "scratch", tmp_path / "log", _options(fake_mpm_binary(tmp_path)), LABEL)
+    victim = sorted(raw.glob("particles*.h5"))[3]
+    victim.write_bytes(victim.read_bytes()[:500])
+    with pytest.raises(MPMRunError, match=rf"train realization 0001: {victim}: not a readable CB-Geo particle table"):
+        trajectory_from_cbgeo(loaded, raw, LABEL, {})
+
+
+def test_simulate_writes_the_trajectory_and_removes_raw_output_unless_kept(case_dir, tmp_path):
+    case, config = case_dir
+    settings = copy.deepcopy(config["mpm"])
+    settings.update(engine="cbgeo", cbgeo=_options(fake_mpm_binary(tmp_path)))
+    simulate(case, tmp_path / "t.h5", tmp_path / "scratch", tmp_path / "log", settings, LABEL, "gzip")
+    assert read_trajectory(tmp_path / "t.h5").engine == "cbgeo" and not (tmp_path / "scratch").exists()
+    settings["cbgeo"]["keep_raw"] = True
+    simulate(case, tmp_path / "t.h5", tmp_path / "scratch", tmp_path / "log", settings, LABEL, "gzip")
+    assert list((tmp_path / "scratch").rglob("particles*.h5"))
+
+
+@pytest.mark.workflow
+def test_a_failing_realization_does_not_cost_the_others(tmp_path, monkeypatch):
+    config = load_yaml(TINY_CONFIG)
+    config["mpm"] = {"engine": "cbgeo", "duration_s": 0.25, "cbgeo": {"binary": str(fake_mpm_binary(tmp_path))}}
+    path = write_config(tmp_path / "config.yaml", config)
+    monkeypatch.setenv("FAKE_MPM_ABORT", "1")
+    result = snakemake(tmp_path, "--cores", "2", "--keep-going", "dataset", config=path)
+    monkeypatch.delenv("FAKE_MPM_ABORT")
+    assert result.returncode != 0
+    assert "logs/mpm_run/train/0001.log" in result.stdout + result.stderr
+    log = (tmp_path / "logs/mpm_run/train/0001.log").read_text()
+    assert "MPMRunError: train realization 0001: CB-Geo mpm exited with status 134: a particle left the mesh" in log
+    assert (tmp_path / "results/mpm/train/0000/trajectory.h5").exists()
+    assert (tmp_path / "results/mpm/valid/0000/trajectory.h5").exists()
+    assert not (tmp_path / "results/mpm/train/0001/trajectory.h5").exists()
+    assert (tmp_path / "results/mpm/train/0001/scratch/mpm.json").exists()  # left for inspection
+    finished = (tmp_path / "results/mpm/train/0000/trajectory.h5").stat().st_mtime_ns
+    jobs = scheduled(snakemake(tmp_path, "-n", "dataset", config=path))
+    assert jobs.get("mpm_run") == 1 and "mpm_input" not in jobs  # only the failed realization runs again
+    result = snakemake(tmp_path, "--cores", "2", "dataset", config=path)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "results/mpm/train/0000/trajectory.h5").stat().st_mtime_ns == finished
+    assert len(list(read_trajectory(tmp_path / "results/mpm/train/0001/trajectory.h5").positions)) == 10
+    shutil.rmtree(tmp_path / "results")
