@@ -28,7 +28,8 @@ def main() -> int:
     parser.add_argument("-p", dest="threads", default="1")
     args = parser.parse_args()
     case = read_case(args.directory)
-    print(f"fake mpm: {len(case.positions)} particles")
+    print(f"fake mpm: {len(case.positions)} particles, {args.threads} thread(s), "
+          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY', '')}")
     if os.environ.get("FAKE_MPM_ABORT") == str(case.meta["index"]):
         print("mpm::base::init_particles() Particle outside the mesh domain", flush=True)
         return 134

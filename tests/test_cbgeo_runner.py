@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import shutil
 
+import h5py
 import numpy as np
 import pytest
 
@@ -74,6 +75,27 @@ def test_a_truncated_output_file_is_reported_naming_the_realization_and_file(cas
     victim.write_bytes(victim.read_bytes()[:500])
     with pytest.raises(MPMRunError, match=rf"train realization 0001: {victim}: not a readable CB-Geo particle table"):
         trajectory_from_cbgeo(loaded, raw, LABEL, {})
+
+
+def test_non_finite_output_is_reported_as_divergence(case_dir, tmp_path):
+    case, _ = case_dir
+    loaded, raw, _ = run_cbgeo(case, tmp_path / "scratch", tmp_path / "log", _options(fake_mpm_binary(tmp_path)), LABEL)
+    victim = sorted(raw.glob("particles*.h5"))[-1]
+    with h5py.File(victim, "r+") as handle:
+        table = handle["table"][()]
+        table["coord_y"][7] = np.nan
+        handle["table"][...] = table
+    with pytest.raises(MPMRunError, match=r"train realization 0001: .*non-finite particle coordinates.*diverged"):
+        trajectory_from_cbgeo(loaded, raw, LABEL, {})
+
+
+@pytest.mark.parametrize("threads, policy", [(1, ""), (2, "passive")])
+def test_threads_are_passed_and_omp_waits_passively_with_more_than_one(case_dir, tmp_path, threads, policy, monkeypatch):
+    case, _ = case_dir
+    monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
+    run_cbgeo(case, tmp_path / "scratch", tmp_path / "log", _options(fake_mpm_binary(tmp_path), threads=threads), LABEL)
+    log = (tmp_path / "log").read_text()
+    assert f"-p {threads}" in log and f"{threads} thread(s), OMP_WAIT_POLICY={policy}\n" in log
 
 
 def test_simulate_writes_the_trajectory_and_removes_raw_output_unless_kept(case_dir, tmp_path):
