@@ -1,0 +1,267 @@
+"""Run a batch of case directories that share a grid: time stepping, frames, early stop, divergence.
+
+The time step follows the CFL condition dt = cfl · h / (c_p + |v|max), capped at ``dt_max_s`` and
+shrunk so a whole number of steps fills each frame interval. A realization stops early once its
+kinetic energy has stayed below ``early_stop_fraction`` of its peak for ``early_stop_duration_s``;
+one that produces a non-finite state, loses a particle off the grid, or gains more than
+``energy_growth_limit`` of its initial total energy is flagged as diverged. Either way it leaves
+the batch (the tensors are compacted) and its remaining frames repeat its last state, so every
+trajectory keeps the same length and the others go on.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+
+from rgns.cbgeo.case import Case, CaseError
+from rgns.mpm.mohr_coulomb import MohrCoulomb
+from rgns.mpm.shape import SHAPE_FUNCTIONS, RegularGrid
+from rgns.mpm.step import Boundary, Particles, substep
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class EngineSettings:
+    """Numerical settings of the embedded engine (config section ``mpm.embedded``)."""
+
+    shape_function: str = "linear"
+    cfl: float = 0.2
+    dt_max_s: float = 1e-3
+    pic_blend: float = 0.0
+    early_stop: bool = True
+    early_stop_fraction: float = 0.01
+    early_stop_duration_s: float = 0.5
+    energy_growth_limit: float = 0.05
+    friction_source: str = "exact"
+    dtype: str = "float64"
+    device: str = "cpu"
+
+    @classmethod
+    def from_config(cls, section: dict[str, Any]) -> "EngineSettings":
+        return cls(**{key: section[key] for key in cls.__dataclass_fields__ if key in section})
+
+
+@dataclass
+class RunResult:
+    """One realization's frames and what happened to it."""
+
+    positions: np.ndarray  # [T, N, 2]
+    time_s: np.ndarray  # [T]
+    energies: np.ndarray  # [T, 3]: kinetic, potential, elastic (J per metre width)
+    status: str = "ok"  # "ok" or "diverged: <reason>"
+    stopped_at_s: float | None = None
+    steps: int = 0
+    wall_s: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+
+def grid_of(case: Case) -> RegularGrid:
+    """The regular grid of a case's row-by-row ED2Q4 mesh."""
+    nodes = case.nodes
+    origin = nodes.min(axis=0)
+    xs, ys = np.unique(nodes[:, 0]), np.unique(nodes[:, 1])
+    h = float(xs[1] - xs[0])
+    grid = RegularGrid((float(origin[0]), float(origin[1])), h, (len(xs) - 1, len(ys) - 1))
+    expected = np.column_stack([np.tile(xs, len(ys)), np.repeat(ys, len(xs))])
+    if abs(ys[1] - ys[0] - h) > 1e-9 * h or nodes.shape != expected.shape or not np.allclose(nodes, expected):
+        raise CaseError(f"{case.directory}: the embedded engine needs a regular grid of square cells numbered row by row")
+    return grid
+
+
+def boundary_of(case: Case, device: torch.device) -> Boundary:
+    """Velocity and friction constraints of a case, extended to the padding nodes beyond each wall."""
+    nodes = case.nodes
+    mesh = case.config["mesh"]["boundary_conditions"]
+    fixed = np.zeros((len(nodes), 2), dtype=bool)
+    friction = np.zeros(len(nodes))
+    floor = np.zeros(len(nodes), dtype=bool)
+
+    def beyond(node_set: np.ndarray, axis: int) -> np.ndarray:
+        """The wall's nodes and every node on its outer side (the padding)."""
+        wall = nodes[node_set, axis]
+        if np.ptp(wall) > 1e-9:
+            raise CaseError(f"{case.directory}: a constrained node set is not a straight wall along axis {axis}")
+        middle = 0.5 * (nodes[:, axis].min() + nodes[:, axis].max())
+        outside = nodes[:, axis] <= wall[0] + 1e-9 if wall[0] < middle else nodes[:, axis] >= wall[0] - 1e-9
+        return np.flatnonzero(outside)
+
+    for constraint in mesh.get("velocity_constraints", []):
+        if float(constraint["velocity"]) != 0.0:
+            raise CaseError(f"{case.directory}: only zero velocity constraints are supported")
+        axis = int(constraint["dir"])
+        fixed[beyond(case.node_sets[int(constraint["nset_id"])], axis), axis] = True
+    for constraint in mesh.get("friction_constraints", []):
+        if int(constraint["dir"]) != 1 or int(constraint["sign_n"]) != -1:
+            raise CaseError(f"{case.directory}: only floor friction (dir 1, sign_n -1) is supported")
+        members = beyond(case.node_sets[int(constraint["nset_id"])], 1)
+        floor[members] = True
+        friction[members] = float(constraint["friction"])
+    return Boundary(torch.as_tensor(fixed, device=device), torch.as_tensor(friction, device=device),
+                    torch.as_tensor(floor, device=device))
+
+
+def particles_of(cases: list[Case], settings: EngineSettings, device: torch.device) -> Particles:
+    """The flat particle state of a batch of cases at rest, with their initial stresses."""
+    dtype = getattr(torch, settings.dtype)
+
+    def cat(arrays: list[np.ndarray]) -> torch.Tensor:
+        return torch.as_tensor(np.concatenate(arrays), dtype=dtype, device=device)
+
+    per_material: dict[str, list[np.ndarray]] = {k: [] for k in
+                                                 ("youngs_modulus", "poisson_ratio", "dilation", "cohesion", "tension_cutoff")}
+    friction, stresses = [], []
+    for case in cases:
+        materials = case.materials
+        for key, values in per_material.items():
+            values.append(np.array([materials[int(k)][key] for k in case.material_id], dtype=float))
+        friction.append(case.friction_deg if settings.friction_source == "exact" else case.binned_friction_deg)
+        stresses.append(case.stresses[:, [0, 1, 2, 3]] if case.stresses is not None else np.zeros((len(case.positions), 4)))
+    volume = cat([case.volumes for case in cases])
+    like = volume
+    material = MohrCoulomb.from_parameters(
+        cat(per_material["youngs_modulus"]), cat(per_material["poisson_ratio"]), cat(friction),
+        cat(per_material["dilation"]), cat(per_material["cohesion"]), cat(per_material["tension_cutoff"]), like,
+    )
+    batch = torch.cat([torch.full((len(case.positions),), b, dtype=torch.long, device=device) for b, case in enumerate(cases)])
+    position = cat([case.positions for case in cases])
+    return Particles(
+        position=position,
+        velocity=torch.zeros_like(position),
+        mass=volume * cat([case.density_kg_m3 for case in cases]),
+        volume=volume,
+        stress=cat(stresses),
+        batch=batch,
+        material=material,
+    )
+
+
+def energies(particles: Particles, gravity: float, batches: int) -> torch.Tensor:
+    """Kinetic, potential (from y = 0) and elastic energy per realization [B, 3]."""
+    m = particles.material
+    sxx, syy, szz, txy = particles.stress.unbind(1)
+    e = m.shear_modulus * (3 * m.lame_lambda + 2 * m.shear_modulus) / (m.lame_lambda + m.shear_modulus)
+    nu = m.lame_lambda / (2 * (m.lame_lambda + m.shear_modulus))
+    density = (sxx ** 2 + syy ** 2 + szz ** 2 - 2 * nu * (sxx * syy + syy * szz + szz * sxx)) / (2 * e) \
+        + txy ** 2 / (2 * m.shear_modulus)
+    per_particle = torch.stack([
+        0.5 * particles.mass * (particles.velocity ** 2).sum(1),
+        particles.mass * gravity * particles.position[:, 1],
+        density * particles.volume,
+    ], dim=1)
+    return torch.zeros((batches, 3), dtype=per_particle.dtype, device=per_particle.device).index_add_(
+        0, particles.batch, per_particle)
+
+
+def _select(particles: Particles, keep: torch.Tensor, new_batch: torch.Tensor) -> Particles:
+    """The particles of the realizations still running, renumbered 0..B'-1."""
+    mask = keep[particles.batch]
+    material = MohrCoulomb(**{name: getattr(particles.material, name)[mask]
+                              for name in particles.material.__dataclass_fields__})
+    return Particles(particles.position[mask], particles.velocity[mask], particles.mass[mask], particles.volume[mask],
+                     particles.stress[mask], new_batch[particles.batch[mask]], material)
+
+
+def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | None = None,
+              frame_interval_s: float | None = None) -> list[RunResult]:
+    """Simulate every case (same grid and constraints) to ``duration_s``; one result per case."""
+    start_wall = time.perf_counter()
+    device = torch.device(settings.device)
+    grid = grid_of(cases[0])
+    for case in cases[1:]:
+        if not np.array_equal(case.nodes, cases[0].nodes):
+            raise CaseError(f"{case.directory}: a batch needs one grid; it differs from {cases[0].directory}")
+    boundary = boundary_of(cases[0], device)
+    gravity_vector = cases[0].config["external_loading_conditions"]["gravity"]
+    dtype = getattr(torch, settings.dtype)
+    gravity = torch.as_tensor(gravity_vector, dtype=dtype, device=device)
+    g = abs(float(gravity_vector[1]))
+    meta = cases[0].meta
+    frame_interval_s = frame_interval_s or meta["frame_interval_s"]
+    duration_s = duration_s or meta["nsteps"] * meta["dt_s"]
+    n_frames = int(round(duration_s / frame_interval_s)) + 1
+    shape = SHAPE_FUNCTIONS[settings.shape_function]
+
+    particles = particles_of(cases, settings, device)
+    counts = [len(case.positions) for case in cases]
+    live = list(range(len(cases)))  # case index of each batch slot
+    frames = [[case.positions.astype(np.float32)] for case in cases]
+    history = [[] for _ in cases]
+    results: list[RunResult | None] = [None] * len(cases)
+    initial = energies(particles, g, len(cases))
+    for b in range(len(cases)):
+        history[b].append(initial[b].cpu().numpy())
+    peak = torch.zeros(len(cases), dtype=dtype, device=device)
+    quiet = np.zeros(len(cases))
+    initial_total = initial.sum(1)
+    wave_speed = torch.sqrt(particles.material.p_wave_modulus * particles.volume / particles.mass).max().item()
+    steps = 0
+    for frame in range(1, n_frames):
+        speed = particles.velocity.abs().max().item() if len(particles.mass) else 0.0
+        dt_cfl = settings.cfl * grid.h / (wave_speed + speed)
+        substeps = max(1, math.ceil(frame_interval_s / min(dt_cfl, settings.dt_max_s) - 1e-9))
+        dt = frame_interval_s / substeps
+        left_grid = torch.zeros(len(live), dtype=torch.long, device=device)
+        for _ in range(substeps):
+            weights = shape(particles.position, grid)
+            left_grid.index_add_(0, particles.batch, (~weights.inside).long())
+            substep(particles, weights, grid, boundary, gravity, len(live), dt, settings.pic_blend)
+        steps += substeps
+        now = frame * frame_interval_s
+        energy = energies(particles, g, len(live))
+        finite = torch.zeros(len(live), dtype=torch.long, device=device).index_add_(
+            0, particles.batch, (~torch.isfinite(particles.position).all(1) | ~torch.isfinite(particles.velocity).all(1)).long())
+        positions = particles.position.detach().cpu().numpy().astype(np.float32)
+        live_counts = [counts[c] for c in live]
+        split = np.split(positions, np.cumsum(live_counts)[:-1])
+        keep = torch.ones(len(live), dtype=torch.bool, device=device)
+        energy_np = energy.cpu().numpy()
+        for slot, case_index in enumerate(live):
+            frames[case_index].append(split[slot])
+            history[case_index].append(energy_np[slot])
+            reason = None
+            if finite[slot] > 0 or not np.isfinite(energy_np[slot]).all():
+                reason = f"non-finite particle state at t = {now:.3f} s"
+            elif left_grid[slot] > 0:
+                reason = f"{int(left_grid[slot])} particle step(s) outside the grid by t = {now:.3f} s"
+            elif energy_np[slot].sum() > float(initial_total[case_index]) * (1 + settings.energy_growth_limit):
+                growth = energy_np[slot].sum() / float(initial_total[case_index]) - 1
+                reason = f"total energy grew {growth:.1%} by t = {now:.3f} s (limit {settings.energy_growth_limit:.0%})"
+            if reason:
+                frames[case_index][-1] = frames[case_index][-2]
+                results[case_index] = RunResult(np.empty(0), np.empty(0), np.empty(0), status=f"diverged: {reason}")
+                keep[slot] = False
+                continue
+            kinetic = energy[slot, 0]
+            peak[case_index] = torch.maximum(peak[case_index], kinetic)
+            quiet[case_index] = quiet[case_index] + frame_interval_s if kinetic < settings.early_stop_fraction * peak[case_index] else 0.0
+            if settings.early_stop and quiet[case_index] >= settings.early_stop_duration_s - 1e-9:
+                results[case_index] = RunResult(np.empty(0), np.empty(0), np.empty(0), stopped_at_s=now)
+                keep[slot] = False
+        if not keep.all():
+            new_batch = torch.cumsum(keep.long(), 0) - 1
+            particles = _select(particles, keep, new_batch)
+            live = [c for slot, c in enumerate(live) if keep[slot]]
+        if frame % 40 == 0 or not live:
+            log.info("t = %.2f s: %d of %d realizations running, dt = %.2e s (%d steps so far)",
+                     now, len(live), len(cases), dt, steps)
+        if not live:
+            break
+    wall = time.perf_counter() - start_wall
+    time_s = np.arange(n_frames) * frame_interval_s
+    out = []
+    for case_index in range(len(cases)):
+        result = results[case_index] or RunResult(np.empty(0), np.empty(0), np.empty(0))
+        stored, energy_rows = frames[case_index], history[case_index]
+        stored += [stored[-1]] * (n_frames - len(stored))
+        energy_rows += [energy_rows[-1]] * (n_frames - len(energy_rows))
+        result.positions, result.time_s, result.energies = np.stack(stored), time_s, np.stack(energy_rows)
+        result.steps, result.wall_s = steps, wall
+        out.append(result)
+    return out
