@@ -28,20 +28,18 @@ include: "rules/mpm.smk"
 include: "rules/dataset.smk"
 
 
-rule hazard_map:
-    """Everything built so far for the hazard map: scenes, fields, previews, MPM case directories."""
-    input:
-        all_scene_files("geometry", "json"),
-        all_scene_files("fields", "npz"),
-        expand("results/plots/{set}/scenes.png", set=SETS),
-        [f"results/mpm/{name}/{i}/case" for name in SETS for i in set_ids(name)],
-
-
 rule dataset:
     """MPM trajectories of every set, packed, and the train/valid export for geoelements/gns."""
     input:
         expand("results/dataset/{set}.h5", set=SETS),
         "results/dataset/gns/metadata.json",
+
+
+rule hazard_map:
+    """Everything built so far for the hazard map: scene previews and the MPM dataset."""
+    input:
+        expand("results/plots/{set}/scenes.png", set=SETS),
+        rules.dataset.input,
 
 
 rule paraview:

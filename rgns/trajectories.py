@@ -5,6 +5,9 @@ read sequentially fast), ``time_s`` [T], and per particle ``particle_type``, ``f
 ``volume_m2``, ``mass_kg``; attributes ``frame_interval_s``, ``bounds`` [[x0, x1], [y0, y1]],
 ``engine``, ``set_name``, ``index`` and ``provenance`` (the JSON of the settings that made it).
 
+``status`` is "ok" or "diverged: <reason>"; ``energies`` [T, 3] (kinetic, potential, elastic,
+J per metre width) is present when the engine reports it.
+
 A packed set file holds one group per realization under ``trajectories/<id>`` with the same
 datasets, the same attributes at the root, and ``statistics/`` with per-axis mean and standard
 deviation of velocity and acceleration **in per-frame units** (m/frame, m/frame²): finite
@@ -46,6 +49,8 @@ class Trajectory:
     set_name: str
     index: int
     provenance: dict[str, Any] = field(default_factory=dict)
+    status: str = "ok"  # "ok", or "diverged: <reason>" (kept out of datasets)
+    energies: np.ndarray | None = None  # [T, 3] kinetic, potential, elastic (J/m), when the engine gives them
 
     def __post_init__(self) -> None:
         self.positions = np.asarray(self.positions, dtype=np.float32)
@@ -77,6 +82,8 @@ def validate_shapes(trajectory: Trajectory) -> list[str]:
         values = getattr(trajectory, name)
         if np.shape(values) != (particles,):
             problems.append(f"{name} has shape {list(np.shape(values))}, expected [{particles}]")
+    if trajectory.energies is not None and np.shape(trajectory.energies) != (frames, 3):
+        problems.append(f"energies has shape {list(np.shape(trajectory.energies))}, expected [{frames}, 3]")
     if np.shape(trajectory.bounds) != (2, 2):
         problems.append(f"bounds must be [[x0, x1], [y0, y1]], got {np.asarray(trajectory.bounds).tolist()}")
     return problems
@@ -100,6 +107,9 @@ def _write_group(group: h5py.Group, trajectory: Trajectory, compression: str) ->
     group.attrs["set_name"] = trajectory.set_name
     group.attrs["index"] = trajectory.index
     group.attrs["provenance"] = json.dumps(trajectory.provenance, sort_keys=True)
+    group.attrs["status"] = trajectory.status
+    if trajectory.energies is not None:
+        group.create_dataset("energies", data=np.asarray(trajectory.energies, dtype=np.float64))
 
 
 def _read_group(group: h5py.Group, where: str) -> Trajectory:
@@ -117,6 +127,8 @@ def _read_group(group: h5py.Group, where: str) -> Trajectory:
             set_name=str(group.attrs["set_name"]),
             index=int(group.attrs["index"]),
             provenance=json.loads(group.attrs["provenance"]),
+            status=str(group.attrs.get("status", "ok")),
+            energies=group["energies"][()] if "energies" in group else None,
         )
     except KeyError as error:
         raise TrajectoryError(f"{where}: missing {error}") from error
@@ -150,6 +162,15 @@ def read_trajectory(path: str | Path) -> Trajectory:
     try:
         with h5py.File(path, "r") as handle:
             return _read_group(handle, str(path))
+    except OSError as error:
+        raise TrajectoryError(f"{path}: not a readable HDF5 trajectory ({error})") from error
+
+
+def read_status(path: str | Path) -> str:
+    """Just the status of a trajectory file ("ok" or "diverged: ...")."""
+    try:
+        with h5py.File(path, "r") as handle:
+            return str(handle.attrs.get("status", "ok"))
     except OSError as error:
         raise TrajectoryError(f"{path}: not a readable HDF5 trajectory ({error})") from error
 
@@ -193,13 +214,22 @@ def motion_statistics(trajectories: Iterable[Trajectory]) -> MotionStatistics:
     return MotionStatistics(*velocity.mean_std(), *acceleration.mean_std())
 
 
-def pack(paths: list[str | Path], out_path: str | Path, set_name: str, compression: str = "gzip") -> MotionStatistics:
-    """Pack realization files into one set file with motion statistics; returns the statistics."""
+def pack(paths: list[str | Path], out_path: str | Path, set_name: str,
+         compression: str = "gzip") -> tuple[MotionStatistics, list[str]]:
+    """Pack realization files into one set file with motion statistics.
+
+    Realizations whose status is not "ok" (diverged runs) are left out and listed in the file's
+    ``excluded`` attribute. Returns the statistics and the exclusions ("<file>: <status>").
+    """
+    statuses = {str(path): read_status(path) for path in paths}
+    excluded = [f"{path}: {status}" for path, status in statuses.items() if status != "ok"]
+    paths = [path for path in paths if statuses[str(path)] == "ok"]
     if not paths:
-        raise TrajectoryError(f"set {set_name}: nothing to pack")
+        raise TrajectoryError(f"set {set_name}: no finished realization to pack ({len(excluded)} diverged)")
     first = read_trajectory(paths[0])
     with _atomic_h5(out_path) as handle:
         handle.attrs["set_name"] = set_name
+        handle.attrs["excluded"] = json.dumps(excluded)
         handle.attrs["frame_interval_s"] = first.frame_interval_s
         handle.attrs["bounds"] = first.bounds
         group = handle.create_group("trajectories")
@@ -220,7 +250,7 @@ def pack(paths: list[str | Path], out_path: str | Path, set_name: str, compressi
         for name, value in vars(statistics).items():
             stats_group.create_dataset(name, data=value)
         stats_group.attrs["units"] = "per frame: m/frame and m/frame^2"
-    return statistics
+    return statistics, excluded
 
 
 def read_packed(path: str | Path) -> Iterator[Trajectory]:

@@ -8,6 +8,7 @@ SETS = list(config["sets"])
 wildcard_constraints:
     set="|".join(SETS),
     index=r"[0-9]+",
+    chunk=r"[0-9]+",
 
 
 def set_ids(set_name):
@@ -74,6 +75,29 @@ def mpm_run_params(wildcards):
     return {"mpm": config["mpm"], "compression": config["dataset"]["compression"]}
 
 
-def set_trajectories(wildcards):
-    """Every realization's trajectory file of one set."""
-    return [f"results/mpm/{wildcards.set}/{i}/trajectory.h5" for i in set_ids(wildcards.set)]
+def chunk_ids(set_name):
+    """Chunk ids of a set ('000', '001', ...): realizations split by mpm.chunk_size."""
+    size = config["mpm"]["chunk_size"]
+    return [f"{k:03d}" for k in range(-(-len(set_ids(set_name)) // size))]
+
+
+def chunk_members(set_name, chunk):
+    """Realization ids of one chunk."""
+    size = config["mpm"]["chunk_size"]
+    return set_ids(set_name)[int(chunk) * size:(int(chunk) + 1) * size]
+
+
+def chunk_cases(wildcards):
+    """The case directories of one chunk."""
+    return [f"results/mpm/{wildcards.set}/{i}/case" for i in chunk_members(wildcards.set, wildcards.chunk)]
+
+
+def set_chunks(wildcards):
+    """Every chunk directory of one set."""
+    return [f"results/mpm/{wildcards.set}/chunk_{k}" for k in chunk_ids(wildcards.set)]
+
+
+def chunk_of(wildcards):
+    """The chunk directory that holds one realization's trajectory."""
+    chunk = int(wildcards.index) // config["mpm"]["chunk_size"]
+    return f"results/mpm/{wildcards.set}/chunk_{chunk:03d}"

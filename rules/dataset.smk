@@ -1,7 +1,7 @@
 rule pack:
     """Pack a set's trajectories into one HDF5 file with per-frame motion statistics."""
     input:
-        set_trajectories,
+        set_chunks,
     output:
         "results/dataset/{set}.h5",
     params:
@@ -36,7 +36,7 @@ rule gns_export:
 rule paraview_series:
     """A ParaView time series (VTU frames + .pvd) of one realization's trajectory."""
     input:
-        "results/mpm/{set}/{index}/trajectory.h5",
+        chunk_of,
     output:
         directory("results/paraview/{set}/{index}"),
     params:

@@ -16,18 +16,20 @@ rule mpm_input:
 
 
 rule mpm_run:
-    """Run one case through the configured engine (mpm.engine) into a trajectory file."""
+    """Run a chunk of cases through the configured engine (mpm.engine) into trajectory files."""
     input:
-        case="results/mpm/{set}/{index}/case",
+        cases=chunk_cases,
     output:
-        "results/mpm/{set}/{index}/trajectory.h5",
+        directory("results/mpm/{set}/chunk_{chunk}"),
     params:
         settings=mpm_run_params,
-        scratch="results/mpm/{set}/{index}/scratch",
+        scratch="results/mpm/{set}/scratch_{chunk}",
+        engine_logs="logs/mpm_run/{set}/chunk_{chunk}",
     log:
-        script="logs/mpm_run/{set}/{index}.log",
-        engine="logs/mpm_run/{set}/{index}.engine.log",
-    threads: lambda wildcards: config["mpm"]["cbgeo"]["threads"] if config["mpm"]["engine"] == "cbgeo" else 1
+        "logs/mpm_run/{set}/chunk_{chunk}.log",
+    threads: lambda wildcards: config["mpm"]["cbgeo"]["threads"] if config["mpm"]["engine"] == "cbgeo" else config["mpm"]["embedded"]["threads"]
+    resources:
+        mem_mb=lambda wildcards: 500 + 100 * config["mpm"]["chunk_size"],
     conda:
         "../envs/rgns.yaml"
     script:

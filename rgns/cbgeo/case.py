@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from rgns.cbgeo import writer as names
+from rgns.trajectories import SOIL, Trajectory
 
 
 class CaseError(ValueError):
@@ -136,3 +137,25 @@ def read_case(directory: str | Path) -> Case:
         raise CaseError(f"{directory / names.FRICTION_FILE}: {len(friction_deg)} values for {len(positions)} particles")
     return Case(directory, meta, config, nodes, cells, positions, volumes, stresses, material_id, friction_deg,
                 node_sets, particle_sets)
+
+
+def to_trajectory(case: Case, positions: np.ndarray, time_s: np.ndarray, engine: str, provenance: dict[str, Any],
+                  status: str = "ok", energies: np.ndarray | None = None) -> Trajectory:
+    """A trajectory of a case's particles (exact friction, volumes, masses from the case)."""
+    meta = case.meta
+    return Trajectory(
+        positions=positions,
+        time_s=time_s,
+        particle_type=np.full(len(case.positions), SOIL),
+        friction_deg=case.friction_deg,
+        volume_m2=case.volumes,
+        mass_kg=case.volumes * case.density_kg_m3,
+        frame_interval_s=meta["frame_interval_s"],
+        bounds=np.array([[0.0, meta["domain_length_m"]], [0.0, meta["domain_height_m"]]]),
+        engine=engine,
+        set_name=meta["set_name"],
+        index=meta["index"],
+        provenance=provenance,
+        status=status,
+        energies=energies,
+    )

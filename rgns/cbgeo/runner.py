@@ -12,16 +12,18 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from rgns.cbgeo import writer as names
-from rgns.cbgeo.case import Case, read_case
+from rgns.cbgeo.case import Case, read_case, to_trajectory
 from rgns.cbgeo.output import OutputError, read_frames
-from rgns.trajectories import SOIL, Trajectory
+from rgns.trajectories import Trajectory
 
 
 class MPMRunError(RuntimeError):
     """An MPM run could not start, failed, or produced unusable output; names the realization."""
+
+
+class MPMDiverged(MPMRunError):
+    """The run blew up numerically (a particle left the mesh, non-finite state): a result, not a fault."""
 
 
 def find_binary(name_or_path: str, label: str) -> str:
@@ -72,7 +74,9 @@ def run_cbgeo(case_dir: str | Path, scratch_dir: str | Path, log_path: str | Pat
             raise MPMRunError(f"{label}: CB-Geo ran past mpm.cbgeo.timeout_s = {options['timeout_s']} s; log: {log_path}")
     elapsed = time.perf_counter() - start
     if status != 0:
-        raise MPMRunError(f"{label}: CB-Geo mpm exited with status {status}: {_failure_reason(log_path)}; log: {log_path}")
+        reason = _failure_reason(log_path)
+        error = MPMDiverged if reason.startswith("a particle left the mesh") else MPMRunError
+        raise error(f"{label}: CB-Geo mpm exited with status {status}: {reason}; log: {log_path}")
     return case, scratch_dir / names.RESULTS_PATH / names.UUID, elapsed
 
 
@@ -81,19 +85,6 @@ def trajectory_from_cbgeo(case: Case, results_dir: Path, label: str, provenance:
     try:
         frames = read_frames(results_dir, len(case.positions))
     except OutputError as error:
-        raise MPMRunError(f"{label}: {error}") from error
-    meta = case.meta
-    return Trajectory(
-        positions=frames.positions,
-        time_s=(frames.steps + 1) * meta["dt_s"],
-        particle_type=np.full(len(case.positions), SOIL),
-        friction_deg=case.friction_deg,
-        volume_m2=case.volumes,
-        mass_kg=case.volumes * case.density_kg_m3,
-        frame_interval_s=meta["frame_interval_s"],
-        bounds=np.array([[0.0, meta["domain_length_m"]], [0.0, meta["domain_height_m"]]]),
-        engine="cbgeo",
-        set_name=meta["set_name"],
-        index=meta["index"],
-        provenance=provenance,
-    )
+        kind = MPMDiverged if "non-finite" in str(error) else MPMRunError
+        raise kind(f"{label}: {error}") from error
+    return to_trajectory(case, frames.positions, (frames.steps + 1) * case.meta["dt_s"], "cbgeo", provenance)

@@ -1,32 +1,33 @@
 """Mohr-Coulomb elasto-plasticity in plane strain, equivalent to CB-Geo's ``MohrCoulomb2D``
 without softening: friction φ, dilation ψ, cohesion c, tension cutoff T. Tension positive.
 
-Stresses are [P, 4] tensors (σxx, σyy, σzz, τxy). The return mapping works in principal stresses
-(σ1 ≥ σ2 ≥ σ3, with σzz one of them) against
+A stress is four [P] tensors (σxx, σyy, σzz, τxy). The return mapping works in principal
+stresses (σ1 ≥ σ2 ≥ σ3, σzz being one of them) against
 
-    f = σ1 (1 + sin φ) − σ3 (1 − sin φ) − 2 c cos φ ≤ 0,       g = σ1 (1 + sin ψ) − σ3 (1 − sin ψ)
+    f = k σ1 − σ3 − σc ≤ 0,   k = (1 + sin φ)/(1 − sin φ),   σc = 2 c cos φ/(1 − sin φ),
 
-first to the main plane; if that breaks the principal order, to the edge it crossed (two planes
-active, a 2 × 2 solve); if that fails too, to the apex. The plastic flow is D·∂g/∂σ, so the
-correction is exact for linear elasticity (Clausen et al. 2006, non-associated). A tension cutoff
-finally caps every principal stress at T.
+with plastic potential g = m σ1 − σ3, m = (1 + sin ψ)/(1 − sin ψ): first to the main plane along
+D·∂g/∂σ; if that breaks the principal order, to the edge it crossed (two planes active, a 2 × 2
+solve); if that fails too, to the apex. This is exact for linear elasticity (Clausen, Damkilde &
+Andersen 2006, non-associated). A tension cutoff then caps every principal stress at T. Only the
+particles that yield are returned; the rest keep their trial stress.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import torch
 
-
 @dataclass
 class MohrCoulomb:
-    """Per-particle material constants [P] (SI units, angles in radians)."""
+    """Per-particle material constants [P] (SI units); k, m and σc as in the module docstring."""
 
     shear_modulus: torch.Tensor
     lame_lambda: torch.Tensor
     sin_phi: torch.Tensor
-    sin_psi: torch.Tensor
-    cohesion: torch.Tensor
+    k: torch.Tensor
+    m: torch.Tensor
+    sigma_c: torch.Tensor
     tension_cutoff: torch.Tensor
 
     @classmethod
@@ -37,99 +38,113 @@ class MohrCoulomb:
             return torch.as_tensor(value, dtype=like.dtype, device=like.device).expand_as(like).clone()
 
         e, nu = tensor(youngs_modulus), tensor(poisson_ratio)
+        sin_phi = torch.sin(torch.deg2rad(tensor(friction_deg)))
+        sin_psi = torch.sin(torch.deg2rad(tensor(dilation_deg)))
         return cls(
             shear_modulus=e / (2 * (1 + nu)),
             lame_lambda=e * nu / ((1 + nu) * (1 - 2 * nu)),
-            sin_phi=torch.sin(torch.deg2rad(tensor(friction_deg))),
-            sin_psi=torch.sin(torch.deg2rad(tensor(dilation_deg))),
-            cohesion=tensor(cohesion),
+            sin_phi=sin_phi,
+            k=(1 + sin_phi) / (1 - sin_phi),
+            m=(1 + sin_psi) / (1 - sin_psi),
+            sigma_c=2 * tensor(cohesion) * torch.sqrt(1 - sin_phi ** 2) / (1 - sin_phi),
             tension_cutoff=tensor(tension_cutoff),
         )
+
+    def subset(self, index: torch.Tensor) -> "MohrCoulomb":
+        """The constants of the particles at ``index`` (or a boolean mask)."""
+        return MohrCoulomb(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
 
     @property
     def p_wave_modulus(self) -> torch.Tensor:
         return self.lame_lambda + 2 * self.shear_modulus
 
-
-def elastic_increment(strain_increment: torch.Tensor, material: MohrCoulomb) -> torch.Tensor:
-    """Stress increment [P, 4] of a plane-strain increment (dεxx, dεyy, dγxy) [P, 3]."""
-    lam, g = material.lame_lambda, material.shear_modulus
-    volumetric = strain_increment[:, 0] + strain_increment[:, 1]
-    return torch.stack([
-        lam * volumetric + 2 * g * strain_increment[:, 0],
-        lam * volumetric + 2 * g * strain_increment[:, 1],
-        lam * volumetric,
-        g * strain_increment[:, 2],
-    ], dim=1)
+    @property
+    def cohesion(self) -> torch.Tensor:
+        return self.sigma_c * (1 - self.sin_phi) / (2 * torch.sqrt(1 - self.sin_phi ** 2))
 
 
-def _principal_return(sigma: torch.Tensor, material: MohrCoulomb) -> torch.Tensor:
-    """Return sorted principal stresses [P, 3] (σ1 ≥ σ2 ≥ σ3) onto the Mohr-Coulomb surface."""
-    sin_phi, sin_psi = material.sin_phi, material.sin_psi
-    k = (1 + sin_phi) / (1 - sin_phi)
-    m = (1 + sin_psi) / (1 - sin_psi)
-    sigma_c = 2 * material.cohesion * torch.sqrt(1 - sin_phi ** 2) / (1 - sin_phi)
-    lam, g = material.lame_lambda[:, None], material.shear_modulus[:, None]
-    zero, one = torch.zeros_like(k), torch.ones_like(k)
-
-    def d_times(b: torch.Tensor) -> torch.Tensor:  # isotropic stiffness in principal space
-        return lam * b.sum(dim=1, keepdim=True) + 2 * g * b
-
-    # plane 1 (main): k σ1 − σ3; plane 2 (σ1 = σ2 edge): k σ2 − σ3; plane 3 (σ2 = σ3 edge): k σ1 − σ2
-    a1, b1 = torch.stack([k, zero, -one], 1), torch.stack([m, zero, -one], 1)
-    a2, b2 = torch.stack([zero, k, -one], 1), torch.stack([zero, m, -one], 1)
-    a3, b3 = torch.stack([k, -one, zero], 1), torch.stack([m, -one, zero], 1)
-    f1 = (a1 * sigma).sum(1) - sigma_c
-    db1 = d_times(b1)
-    main = sigma - (f1 / (a1 * db1).sum(1))[:, None] * db1
-
-    def edge(a_other: torch.Tensor, b_other: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        db_other = d_times(b_other)
-        f_other = (a_other * sigma).sum(1) - sigma_c
-        m11, m12 = (a1 * db1).sum(1), (a1 * db_other).sum(1)
-        m21, m22 = (a_other * db1).sum(1), (a_other * db_other).sum(1)
-        det = m11 * m22 - m12 * m21
-        l1 = (m22 * f1 - m12 * f_other) / det
-        l2 = (m11 * f_other - m21 * f1) / det
-        return sigma - l1[:, None] * db1 - l2[:, None] * db_other, (l1 >= 0) & (l2 >= 0)
-
-    edge2, valid2 = edge(a2, b2)
-    edge3, valid3 = edge(a3, b3)
-    apex = (sigma_c / (k - 1))[:, None].expand(-1, 3)
-
-    on_main = (main[:, 0] >= main[:, 1]) & (main[:, 1] >= main[:, 2])
-    to_edge2 = ~on_main & (main[:, 1] > main[:, 0]) & valid2 & (edge2[:, 0] >= edge2[:, 2]) & (edge2.sum(1) <= apex.sum(1))
-    to_edge3 = ~on_main & ~to_edge2 & (main[:, 2] > main[:, 1]) & valid3 & (edge3[:, 0] >= edge3[:, 2]) & (edge3.sum(1) <= apex.sum(1))
-    returned = torch.where(on_main[:, None], main, apex)
-    returned = torch.where(to_edge2[:, None], edge2, returned)
-    returned = torch.where(to_edge3[:, None], edge3, returned)
-    return torch.where((f1 > 0)[:, None], returned, sigma)
+def elastic_increment(dxx: torch.Tensor, dyy: torch.Tensor, dxy: torch.Tensor, material: MohrCoulomb) -> tuple:
+    """Stress increments (σxx, σyy, σzz, τxy) of a plane-strain increment (dεxx, dεyy, dγxy)."""
+    volumetric = material.lame_lambda * (dxx + dyy)
+    g = material.shear_modulus
+    return volumetric + 2 * g * dxx, volumetric + 2 * g * dyy, volumetric, g * dxy
 
 
-def return_map(trial: torch.Tensor, material: MohrCoulomb) -> tuple[torch.Tensor, torch.Tensor]:
-    """Admissible stresses [P, 4] from elastic trial stresses, and a [P] mask of yielding particles."""
-    sxx, syy, szz, txy = trial.unbind(1)
+def _principal_return(s1: torch.Tensor, s2: torch.Tensor, s3: torch.Tensor, material: MohrCoulomb) -> tuple:
+    """Return sorted principal stresses (σ1 ≥ σ2 ≥ σ3), all beyond the surface, onto it.
+
+    Planes: 1 (main) k σ1 − σ3, 2 (edge σ1 = σ2) k σ2 − σ3, 3 (edge σ2 = σ3) k σ1 − σ2, each with
+    flow D·b, b = (m, 0, −1), (0, m, −1), (m, −1, 0); the products a_i·D·b_j are written out.
+    """
+    k, sigma_c = material.k, material.sigma_c
+    lam_trace = material.lame_lambda * (material.m - 1)
+    g2 = 2 * material.shear_modulus
+    g2m = g2 * material.m
+    big, small = lam_trace + g2m, lam_trace - g2  # components of D·b
+    f1, f2, f3 = k * s1 - s3 - sigma_c, k * s2 - s3 - sigma_c, k * s1 - s2 - sigma_c
+    m11 = k * big - small  # a_i·D·b_i, the same for the three planes
+    c12 = k * lam_trace - small  # a1·D·b2 = a2·D·b1
+    c13 = k * big - lam_trace  # a1·D·b3 = a3·D·b1
+    l1 = f1 / m11
+    main = (s1 - l1 * big, s2 - l1 * lam_trace, s3 - l1 * small)
+
+    det2 = m11 * m11 - c12 * c12
+    p2, q2 = (m11 * f1 - c12 * f2) / det2, (m11 * f2 - c12 * f1) / det2
+    edge2 = (s1 - p2 * big - q2 * lam_trace, s2 - p2 * lam_trace - q2 * big, s3 - (p2 + q2) * small)
+    det3 = m11 * m11 - c13 * c13
+    p3, q3 = (m11 * f1 - c13 * f3) / det3, (m11 * f3 - c13 * f1) / det3
+    edge3 = (s1 - (p3 + q3) * big, s2 - p3 * lam_trace - q3 * small, s3 - p3 * small - q3 * lam_trace)
+
+    apex_value = sigma_c / (k - 1)
+    on_main = (main[0] >= main[1]) & (main[1] >= main[2])
+    to_edge2 = ~on_main & (main[1] > main[0]) & (p2 >= 0) & (q2 >= 0) & (sum(edge2) <= 3 * apex_value)
+    to_edge3 = ~on_main & ~to_edge2 & (main[2] > main[1]) & (p3 >= 0) & (q3 >= 0) & (sum(edge3) <= 3 * apex_value)
+    return tuple(
+        torch.where(on_main, mi, torch.where(to_edge2, e2, torch.where(to_edge3, e3, apex_value)))
+        for mi, e2, e3 in zip(main, edge2, edge3)
+    )
+
+
+def _principal(sxx, syy, szz, txy):
+    """In-plane principal stresses s_a ≥ s_b, their angle, and the sorted triple with σzz."""
     centre = 0.5 * (sxx + syy)
-    radius = torch.sqrt((0.5 * (sxx - syy)) ** 2 + txy ** 2)
-    angle = 0.5 * torch.atan2(txy, 0.5 * (sxx - syy))  # direction of the larger in-plane stress
-    in_plane = torch.stack([centre + radius, centre - radius, szz], dim=1)
-    ordered, order = torch.sort(in_plane, dim=1, descending=True)
-    returned = _principal_return(ordered, material)
-    returned = torch.minimum(returned, material.tension_cutoff[:, None])
-    back = torch.empty_like(returned).scatter_(1, order, returned)  # undo the sort
-    s_a, s_b, s_z = back.unbind(1)
-    new_centre, new_radius = 0.5 * (s_a + s_b), 0.5 * (s_a - s_b)
-    cos2, sin2 = torch.cos(2 * angle), torch.sin(2 * angle)
-    stress = torch.stack([new_centre + new_radius * cos2, new_centre - new_radius * cos2, s_z, new_radius * sin2], dim=1)
-    yielded = (back - in_plane).abs().amax(dim=1) > 0
-    return stress, yielded
+    half_difference = 0.5 * (sxx - syy)
+    radius = torch.sqrt(half_difference ** 2 + txy ** 2)
+    s_a, s_b = centre + radius, centre - radius
+    s1, s3 = torch.maximum(s_a, szz), torch.minimum(s_b, szz)
+    return s_a, s_b, (s1, s_a + s_b + szz - s1 - s3, s3), (half_difference, txy, radius)
 
 
-def yield_function(stress: torch.Tensor, material: MohrCoulomb) -> torch.Tensor:
-    """f(σ) [P] of the main plane (≤ 0 when admissible), for tests and diagnostics."""
-    sxx, syy, szz, txy = stress.unbind(1)
-    centre = 0.5 * (sxx + syy)
-    radius = torch.sqrt((0.5 * (sxx - syy)) ** 2 + txy ** 2)
-    principal = torch.stack([centre + radius, centre - radius, szz], dim=1)
-    s1, s3 = principal.amax(1), principal.amin(1)
-    return s1 * (1 + material.sin_phi) - s3 * (1 - material.sin_phi) - 2 * material.cohesion * torch.sqrt(1 - material.sin_phi ** 2)
+def return_map(sxx: torch.Tensor, syy: torch.Tensor, szz: torch.Tensor, txy: torch.Tensor,
+               material: MohrCoulomb) -> tuple[tuple, torch.Tensor]:
+    """Admissible stresses (σxx, σyy, σzz, τxy) from elastic trial stresses, and the yielding mask."""
+    _, _, (s1, _, s3), _ = _principal(sxx, syy, szz, txy)
+    yielded = (material.k * s1 - s3 - material.sigma_c > 0) | (s1 > material.tension_cutoff)
+    index = torch.nonzero(yielded).squeeze(1)
+    if index.numel() == 0:
+        return (sxx, syy, szz, txy), yielded
+    sub = material.subset(index)
+    t_xx, t_yy, t_zz, t_xy = sxx[index], syy[index], szz[index], txy[index]
+    a, b, ordered, (half_difference, shear, radius) = _principal(t_xx, t_yy, t_zz, t_xy)
+    plastic = sub.k * ordered[0] - ordered[2] - sub.sigma_c > 0
+    returned = _principal_return(*ordered, sub)
+    r1, r2, r3 = (torch.minimum(torch.where(plastic, r, o), sub.tension_cutoff) for r, o in zip(returned, ordered))
+    z_top, z_bottom = t_zz >= a, t_zz < b  # where σzz sat in the order; it keeps that slot
+    new_z = torch.where(z_top, r1, torch.where(z_bottom, r3, r2))
+    new_a = torch.where(z_top, r2, r1)
+    new_b = torch.where(z_bottom, r2, r3)
+    centre, half = 0.5 * (new_a + new_b), 0.5 * (new_a - new_b)
+    safe = torch.where(radius > 0, radius, torch.ones_like(radius))
+    cos2 = torch.where(radius > 0, half_difference / safe, torch.ones_like(radius))
+    sin2 = torch.where(radius > 0, shear / safe, torch.zeros_like(radius))
+    out = [sxx.clone(), syy.clone(), szz.clone(), txy.clone()]
+    for tensor, value in zip(out, (centre + half * cos2, centre - half * cos2, new_z, half * sin2)):
+        tensor[index] = value
+    return tuple(out), yielded
+
+
+def yield_function(sxx, syy, szz, txy, material: MohrCoulomb) -> torch.Tensor:
+    """f(σ) [P] of the main plane, scaled as σ1(1 + sin φ) − σ3(1 − sin φ) − 2c cos φ."""
+    _, _, (s1, _, s3), _ = _principal(sxx, syy, szz, txy)
+    sin_phi = material.sin_phi
+    return s1 * (1 + sin_phi) - s3 * (1 - sin_phi) - 2 * material.cohesion * torch.sqrt(1 - sin_phi ** 2)

@@ -103,8 +103,8 @@ def boundary_of(case: Case, device: torch.device) -> Boundary:
         members = beyond(case.node_sets[int(constraint["nset_id"])], 1)
         floor[members] = True
         friction[members] = float(constraint["friction"])
-    return Boundary(torch.as_tensor(fixed, device=device), torch.as_tensor(friction, device=device),
-                    torch.as_tensor(floor, device=device))
+    return Boundary(torch.as_tensor(fixed[:, 0], device=device), torch.as_tensor(fixed[:, 1], device=device),
+                    torch.as_tensor(floor, device=device), torch.as_tensor(friction, device=device))
 
 
 def particles_of(cases: list[Case], settings: EngineSettings, device: torch.device) -> Particles:
@@ -131,41 +131,31 @@ def particles_of(cases: list[Case], settings: EngineSettings, device: torch.devi
     )
     batch = torch.cat([torch.full((len(case.positions),), b, dtype=torch.long, device=device) for b, case in enumerate(cases)])
     position = cat([case.positions for case in cases])
+    stress = cat(stresses)
     return Particles(
-        position=position,
-        velocity=torch.zeros_like(position),
-        mass=volume * cat([case.density_kg_m3 for case in cases]),
-        volume=volume,
-        stress=cat(stresses),
-        batch=batch,
-        material=material,
+        x=position[:, 0].contiguous(), y=position[:, 1].contiguous(),
+        vx=torch.zeros_like(volume), vy=torch.zeros_like(volume),
+        mass=volume * cat([case.density_kg_m3 for case in cases]), volume=volume,
+        sxx=stress[:, 0].contiguous(), syy=stress[:, 1].contiguous(), szz=stress[:, 2].contiguous(),
+        txy=stress[:, 3].contiguous(), batch=batch, material=material,
     )
 
 
 def energies(particles: Particles, gravity: float, batches: int) -> torch.Tensor:
     """Kinetic, potential (from y = 0) and elastic energy per realization [B, 3]."""
     m = particles.material
-    sxx, syy, szz, txy = particles.stress.unbind(1)
+    sxx, syy, szz, txy = particles.sxx, particles.syy, particles.szz, particles.txy
     e = m.shear_modulus * (3 * m.lame_lambda + 2 * m.shear_modulus) / (m.lame_lambda + m.shear_modulus)
     nu = m.lame_lambda / (2 * (m.lame_lambda + m.shear_modulus))
     density = (sxx ** 2 + syy ** 2 + szz ** 2 - 2 * nu * (sxx * syy + syy * szz + szz * sxx)) / (2 * e) \
         + txy ** 2 / (2 * m.shear_modulus)
     per_particle = torch.stack([
-        0.5 * particles.mass * (particles.velocity ** 2).sum(1),
-        particles.mass * gravity * particles.position[:, 1],
+        0.5 * particles.mass * (particles.vx ** 2 + particles.vy ** 2),
+        particles.mass * gravity * particles.y,
         density * particles.volume,
     ], dim=1)
     return torch.zeros((batches, 3), dtype=per_particle.dtype, device=per_particle.device).index_add_(
         0, particles.batch, per_particle)
-
-
-def _select(particles: Particles, keep: torch.Tensor, new_batch: torch.Tensor) -> Particles:
-    """The particles of the realizations still running, renumbered 0..B'-1."""
-    mask = keep[particles.batch]
-    material = MohrCoulomb(**{name: getattr(particles.material, name)[mask]
-                              for name in particles.material.__dataclass_fields__})
-    return Particles(particles.position[mask], particles.velocity[mask], particles.mass[mask], particles.volume[mask],
-                     particles.stress[mask], new_batch[particles.batch[mask]], material)
 
 
 def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | None = None,
@@ -180,8 +170,8 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     boundary = boundary_of(cases[0], device)
     gravity_vector = cases[0].config["external_loading_conditions"]["gravity"]
     dtype = getattr(torch, settings.dtype)
-    gravity = torch.as_tensor(gravity_vector, dtype=dtype, device=device)
-    g = abs(float(gravity_vector[1]))
+    gravity = (float(gravity_vector[0]), float(gravity_vector[1]))
+    g = abs(gravity[1])
     meta = cases[0].meta
     frame_interval_s = frame_interval_s or meta["frame_interval_s"]
     duration_s = duration_s or meta["nsteps"] * meta["dt_s"]
@@ -203,21 +193,24 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     wave_speed = torch.sqrt(particles.material.p_wave_modulus * particles.volume / particles.mass).max().item()
     steps = 0
     for frame in range(1, n_frames):
-        speed = particles.velocity.abs().max().item() if len(particles.mass) else 0.0
+        speed = torch.sqrt(particles.vx ** 2 + particles.vy ** 2).max().item()
         dt_cfl = settings.cfl * grid.h / (wave_speed + speed)
         substeps = max(1, math.ceil(frame_interval_s / min(dt_cfl, settings.dt_max_s) - 1e-9))
         dt = frame_interval_s / substeps
         left_grid = torch.zeros(len(live), dtype=torch.long, device=device)
+        repeated = boundary.repeat(len(live))
         for _ in range(substeps):
-            weights = shape(particles.position, grid)
-            left_grid.index_add_(0, particles.batch, (~weights.inside).long())
-            substep(particles, weights, grid, boundary, gravity, len(live), dt, settings.pic_blend)
+            weights = shape(particles.x, particles.y, grid)
+            if not bool(weights.inside.all()):
+                left_grid.index_add_(0, particles.batch, (~weights.inside).long())
+            substep(particles, weights, grid, repeated, gravity, len(live), dt, settings.pic_blend)
         steps += substeps
         now = frame * frame_interval_s
         energy = energies(particles, g, len(live))
-        finite = torch.zeros(len(live), dtype=torch.long, device=device).index_add_(
-            0, particles.batch, (~torch.isfinite(particles.position).all(1) | ~torch.isfinite(particles.velocity).all(1)).long())
-        positions = particles.position.detach().cpu().numpy().astype(np.float32)
+        state_finite = torch.isfinite(particles.x) & torch.isfinite(particles.y) & torch.isfinite(particles.vx) \
+            & torch.isfinite(particles.vy)
+        finite = torch.zeros(len(live), dtype=torch.long, device=device).index_add_(0, particles.batch, (~state_finite).long())
+        positions = torch.stack([particles.x, particles.y], 1).cpu().numpy().astype(np.float32)
         live_counts = [counts[c] for c in live]
         split = np.split(positions, np.cumsum(live_counts)[:-1])
         keep = torch.ones(len(live), dtype=torch.bool, device=device)
@@ -246,7 +239,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
                 keep[slot] = False
         if not keep.all():
             new_batch = torch.cumsum(keep.long(), 0) - 1
-            particles = _select(particles, keep, new_batch)
+            particles = particles.subset(keep[particles.batch], new_batch)
             live = [c for slot, c in enumerate(live) if keep[slot]]
         if frame % 40 == 0 or not live:
             log.info("t = %.2f s: %d of %d realizations running, dt = %.2e s (%d steps so far)",

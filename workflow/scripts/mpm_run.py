@@ -1,11 +1,11 @@
-"""Rule mpm_run: run one case through the configured MPM engine."""
-from rgns.engines import simulate
+"""Rule mpm_run: run one chunk of cases through the configured MPM engine."""
+from rgns.engines import simulate_chunk
 from rgns.logsetup import log_to_file
 
-log = log_to_file(snakemake.log.script)
+log = log_to_file(snakemake.log[0])
 settings = snakemake.params.settings
-label = f"{snakemake.wildcards.set} realization {snakemake.wildcards.index}"
-log.info("%s: engine %s", label, settings["mpm"]["engine"])
-simulate(snakemake.input.case, snakemake.output[0], snakemake.params.scratch, snakemake.log.engine,
-         settings["mpm"], label, settings["compression"])
-log.info("%s: wrote %s", label, snakemake.output[0])
+log.info("%s chunk %s: %d case(s), engine %s", snakemake.wildcards.set, snakemake.wildcards.chunk,
+         len(snakemake.input.cases), settings["mpm"]["engine"])
+statuses = simulate_chunk(list(snakemake.input.cases), snakemake.output[0], snakemake.params.scratch,
+                          snakemake.params.engine_logs, settings["mpm"], settings["compression"])
+log.info("done: %d ok, %d diverged", statuses.count("ok"), len(statuses) - statuses.count("ok"))

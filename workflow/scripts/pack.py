@@ -1,8 +1,14 @@
-"""Rule pack: one HDF5 file per set, with per-frame motion statistics."""
+"""Rule pack: one HDF5 file per set, with per-frame motion statistics; diverged runs left out."""
+from pathlib import Path
+
 from rgns.logsetup import log_to_file
 from rgns.trajectories import pack
 
 log = log_to_file(snakemake.log[0])
-statistics = pack(list(snakemake.input), snakemake.output[0], snakemake.wildcards.set, snakemake.params.compression)
-log.info("packed %d trajectories into %s; velocity std %s, acceleration std %s (per frame)", len(snakemake.input),
-         snakemake.output[0], statistics.velocity_std, statistics.acceleration_std)
+paths = sorted(path for chunk in snakemake.input for path in Path(chunk).glob("*.h5"))
+statistics, excluded = pack(paths, snakemake.output[0], snakemake.wildcards.set, snakemake.params.compression)
+for line in excluded:
+    log.error("left out: %s", line)
+log.info("packed %d of %d trajectories into %s; velocity std %s, acceleration std %s (per frame)",
+         len(paths) - len(excluded), len(paths), snakemake.output[0], statistics.velocity_std,
+         statistics.acceleration_std)
