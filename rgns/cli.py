@@ -30,6 +30,35 @@ def _config_reference(args: argparse.Namespace) -> int:
     return 0
 
 
+def _mpm(args: argparse.Namespace) -> int:
+    import logging
+
+    import torch
+
+    from rgns.cbgeo.case import read_case, to_trajectory
+    from rgns.mpm.solver import EngineSettings, run_batch
+    from rgns.trajectories import write_trajectory
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    torch.set_num_threads(args.threads)
+    settings = EngineSettings(shape_function=args.shape, cfl=args.cfl, dt_max_s=args.dt_max, pic_blend=args.pic_blend,
+                              early_stop=not args.no_early_stop, dtype=args.dtype, device=args.device)
+    cases = [read_case(directory) for directory in args.case_dirs]
+    results = run_batch(cases, settings, duration_s=args.duration)
+    particle_steps = sum(len(case.positions) for case in cases) * results[0].steps
+    print(f"{len(cases)} case(s), {results[0].steps} steps, {results[0].wall_s:.2f} s wall, "
+          f"{particle_steps / results[0].wall_s:.3g} particle-steps/s (counting every case at every step)")
+    for case, result in zip(cases, results):
+        stop = f", stopped at {result.stopped_at_s:.2f} s" if result.stopped_at_s is not None else ""
+        print(f"  {case.directory}: {result.status}{stop}")
+        if args.out:
+            trajectory = to_trajectory(case, result.positions, result.time_s, "embedded",
+                                       {"engine": "embedded", "settings": vars(settings)},
+                                       status=result.status, energies=result.energies)
+            write_trajectory(args.out / f"{case.meta['set_name']}_{case.meta['index']:04d}.h5", trajectory)
+    return 0 if all(result.status == "ok" for result in results) else 3
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="rgns", description="rgns workflow helpers")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -39,6 +68,19 @@ def main(argv: list[str] | None = None) -> int:
     reference = commands.add_parser("config-reference", help="write the Markdown config reference")
     reference.add_argument("--out", type=Path, help="file to write (default: stdout)")
     reference.set_defaults(run=_config_reference)
+    mpm = commands.add_parser("mpm", help="run case directories (sharing a grid) through the embedded MPM engine")
+    mpm.add_argument("case_dirs", nargs="+", type=Path, help="CB-Geo case directories, run as one batch")
+    mpm.add_argument("--out", type=Path, help="directory for the trajectory files")
+    mpm.add_argument("--duration", type=float, help="simulated time (s); default: the case's")
+    mpm.add_argument("--shape", choices=["linear", "bspline"], default="linear")
+    mpm.add_argument("--cfl", type=float, default=0.2)
+    mpm.add_argument("--dt-max", type=float, default=1e-3)
+    mpm.add_argument("--pic-blend", type=float, default=0.0)
+    mpm.add_argument("--no-early-stop", action="store_true")
+    mpm.add_argument("--dtype", choices=["float64", "float32"], default="float64")
+    mpm.add_argument("--device", default="cpu")
+    mpm.add_argument("--threads", type=int, default=1)
+    mpm.set_defaults(run=_mpm)
     args = parser.parse_args(argv)
     return args.run(args)
 

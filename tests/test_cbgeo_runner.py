@@ -12,15 +12,15 @@ import h5py
 import numpy as np
 import pytest
 
-from rgns.cbgeo.runner import MPMRunError, run_cbgeo, trajectory_from_cbgeo
+from rgns.cbgeo.runner import MPMDiverged, MPMRunError, run_cbgeo, trajectory_from_cbgeo
 from rgns.cbgeo.writer import write_case
 from rgns.config import load_yaml
-from rgns.engines import simulate
+from rgns.engines import simulate_chunk
 from rgns.fields import FieldGrid, friction_field
 from rgns.geometry import build_scene
-from rgns.trajectories import read_trajectory
+from rgns.trajectories import read_packed, read_trajectory
 from conftest import TINY_CONFIG
-from workflow_helpers import fake_mpm_binary, scheduled, snakemake, write_config
+from workflow_helpers import fake_mpm_binary, snakemake, write_config
 
 LABEL = "train realization 0001"
 
@@ -52,7 +52,7 @@ def test_a_missing_binary_is_reported_naming_the_realization(case_dir, tmp_path)
 def test_an_aborted_run_is_reported_with_the_reason_and_its_log(case_dir, tmp_path, monkeypatch):
     case, _ = case_dir
     monkeypatch.setenv("FAKE_MPM_ABORT", "1")
-    with pytest.raises(MPMRunError, match=r"train realization 0001: CB-Geo mpm exited with status 134: a particle left the mesh"):
+    with pytest.raises(MPMDiverged, match=r"train realization 0001: CB-Geo mpm exited with status 134: a particle left the mesh"):
         run_cbgeo(case, tmp_path / "scratch", tmp_path / "run.log", _options(fake_mpm_binary(tmp_path)), LABEL)
     assert "Particle outside the mesh" in (tmp_path / "run.log").read_text()
 
@@ -85,7 +85,7 @@ def test_non_finite_output_is_reported_as_divergence(case_dir, tmp_path):
         table = handle["table"][()]
         table["coord_y"][7] = np.nan
         handle["table"][...] = table
-    with pytest.raises(MPMRunError, match=r"train realization 0001: .*non-finite particle coordinates.*diverged"):
+    with pytest.raises(MPMDiverged, match=r"train realization 0001: .*non-finite particle coordinates.*diverged"):
         trajectory_from_cbgeo(loaded, raw, LABEL, {})
 
 
@@ -98,38 +98,45 @@ def test_threads_are_passed_and_omp_waits_passively_with_more_than_one(case_dir,
     assert f"-p {threads}" in log and f"{threads} thread(s), OMP_WAIT_POLICY={policy}\n" in log
 
 
-def test_simulate_writes_the_trajectory_and_removes_raw_output_unless_kept(case_dir, tmp_path):
+def test_a_chunk_writes_trajectories_and_removes_raw_output_unless_kept(case_dir, tmp_path):
     case, config = case_dir
     settings = copy.deepcopy(config["mpm"])
     settings.update(engine="cbgeo", cbgeo=_options(fake_mpm_binary(tmp_path)))
-    simulate(case, tmp_path / "t.h5", tmp_path / "scratch", tmp_path / "log", settings, LABEL, "gzip")
-    assert read_trajectory(tmp_path / "t.h5").engine == "cbgeo" and not (tmp_path / "scratch").exists()
+    simulate_chunk([case], tmp_path / "chunk", tmp_path / "scratch", tmp_path / "logs", settings, "gzip")
+    assert read_trajectory(tmp_path / "chunk" / "0001.h5").engine == "cbgeo"
+    assert not list((tmp_path / "scratch").rglob("particles*.h5"))
     settings["cbgeo"]["keep_raw"] = True
-    simulate(case, tmp_path / "t.h5", tmp_path / "scratch", tmp_path / "log", settings, LABEL, "gzip")
+    simulate_chunk([case], tmp_path / "chunk", tmp_path / "scratch", tmp_path / "logs", settings, "gzip")
     assert list((tmp_path / "scratch").rglob("particles*.h5"))
 
 
 @pytest.mark.workflow
-def test_a_failing_realization_does_not_cost_the_others(tmp_path, monkeypatch):
+def test_a_diverging_realization_is_flagged_and_left_out_while_the_others_finish(tmp_path, monkeypatch):
     config = load_yaml(TINY_CONFIG)
     config["mpm"] = {"engine": "cbgeo", "duration_s": 0.25, "cbgeo": {"binary": str(fake_mpm_binary(tmp_path))}}
     path = write_config(tmp_path / "config.yaml", config)
     monkeypatch.setenv("FAKE_MPM_ABORT", "1")
-    result = snakemake(tmp_path, "--cores", "2", "--keep-going", "dataset", config=path)
-    monkeypatch.delenv("FAKE_MPM_ABORT")
-    assert result.returncode != 0
-    assert "logs/mpm_run/train/0001.log" in result.stdout + result.stderr
-    log = (tmp_path / "logs/mpm_run/train/0001.log").read_text()
-    assert "MPMRunError: train realization 0001: CB-Geo mpm exited with status 134: a particle left the mesh" in log
-    assert (tmp_path / "results/mpm/train/0000/trajectory.h5").exists()
-    assert (tmp_path / "results/mpm/valid/0000/trajectory.h5").exists()
-    assert not (tmp_path / "results/mpm/train/0001/trajectory.h5").exists()
-    assert (tmp_path / "results/mpm/train/0001/scratch/mpm.json").exists()  # left for inspection
-    finished = (tmp_path / "results/mpm/train/0000/trajectory.h5").stat().st_mtime_ns
-    jobs = scheduled(snakemake(tmp_path, "-n", "dataset", config=path))
-    assert jobs.get("mpm_run") == 1 and "mpm_input" not in jobs  # only the failed realization runs again
     result = snakemake(tmp_path, "--cores", "2", "dataset", config=path)
     assert result.returncode == 0, result.stderr
-    assert (tmp_path / "results/mpm/train/0000/trajectory.h5").stat().st_mtime_ns == finished
-    assert len(list(read_trajectory(tmp_path / "results/mpm/train/0001/trajectory.h5").positions)) == 10
+    chunk = tmp_path / "results/mpm/train/chunk_000"
+    assert read_trajectory(chunk / "0000.h5").status == "ok"
+    assert read_trajectory(chunk / "0001.h5").status.startswith("diverged: CB-Geo mpm exited with status 134")
+    run_log = (tmp_path / "logs/mpm_run/train/chunk_000.log").read_text()
+    assert "train realization 0001: CB-Geo mpm exited with status 134: a particle left the mesh" in run_log
+    assert (tmp_path / "results/mpm/train/scratch_000/0001/mpm.json").exists()  # kept for inspection
+    assert [t.index for t in read_packed(tmp_path / "results/dataset/train.h5")] == [0]
+    assert "left out: results/mpm/train/chunk_000/0001.h5: diverged" in (tmp_path / "logs/pack/train.log").read_text()
+
+
+@pytest.mark.workflow
+def test_a_missing_binary_stops_the_job_and_keeps_what_was_computed(tmp_path):
+    config = load_yaml(TINY_CONFIG)
+    config["mpm"] = {"engine": "cbgeo", "duration_s": 0.25, "cbgeo": {"binary": str(tmp_path / "nowhere" / "mpm")}}
+    path = write_config(tmp_path / "config.yaml", config)
+    result = snakemake(tmp_path, "--cores", "2", "--keep-going", "dataset", config=path)
+    assert result.returncode != 0
+    run_log = (tmp_path / "logs/mpm_run/train/chunk_000.log").read_text()
+    assert "MPMRunError: train realization 0000: CB-Geo binary" in run_log and "does not exist" in run_log
+    assert len(list((tmp_path / "results/mpm/train").glob("*/case/mpm.json"))) == 2  # the inputs stay
+    assert (tmp_path / "results/fields/train/0001.npz").exists()
     shutil.rmtree(tmp_path / "results")

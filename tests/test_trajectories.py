@@ -90,7 +90,8 @@ def test_packing_several_trajectories_keeps_each_and_the_pooled_statistics(tmp_p
         paths.append(tmp_path / f"{trajectory.index}.h5")
         write_trajectory(paths[-1], trajectory)
     packed = tmp_path / "train.h5"
-    statistics = pack(paths, packed, "train")
+    statistics, excluded = pack(paths, packed, "train")
+    assert excluded == []
     again = list(read_packed(packed))
     assert [t.index for t in again] == [0, 1, 2, 3] and [t.n_particles for t in again] == [20, 21, 22, 23]
     for original, copy in zip(trajectories, again):

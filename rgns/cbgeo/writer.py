@@ -145,6 +145,18 @@ def case_json(settings: dict[str, Any], bins: FrictionBins, used_bins: np.ndarra
     }
     if settings["geostatic_stress"]:
         mesh["particles_stresses"] = STRESSES_FILE
+    analysis: dict[str, Any] = {
+        "type": "MPMExplicit2D",
+        "mpm_scheme": settings["scheme"],
+        "velocity_update": False,
+        "locate_particles": True,
+        "dt": settings["dt_s"],
+        "nsteps": nsteps,
+        "uuid": UUID,
+        "resume": {"resume": False, "uuid": UUID, "step": 0},
+    }
+    if settings["damping_factor"] > 0:
+        analysis["damping"] = {"type": "Cundall", "damping_factor": settings["damping_factor"]}
     return {
         "title": title,
         "mesh": mesh,
@@ -162,16 +174,7 @@ def case_json(settings: dict[str, Any], bins: FrictionBins, used_bins: np.ndarra
         "materials": [_material(k, phi, settings) for k, phi in enumerate(bins.bin_friction_deg)],
         "material_sets": [{"material_id": int(k), "pset_id": int(k) + 1} for k in used_bins],
         "external_loading_conditions": {"gravity": [0.0, -settings["gravity_m_s2"]]},
-        "analysis": {
-            "type": "MPMExplicit2D",
-            "mpm_scheme": settings["scheme"],
-            "velocity_update": False,
-            "locate_particles": True,
-            "dt": settings["dt_s"],
-            "nsteps": nsteps,
-            "uuid": UUID,
-            "resume": {"resume": False, "uuid": UUID, "step": 0},
-        },
+        "analysis": analysis,
         "post_processing": {"path": RESULTS_PATH, "output_steps": output_steps, "vtk": []},
     }
 

@@ -57,6 +57,7 @@ class RunResult:
     energies: np.ndarray  # [T, 3]: kinetic, potential, elastic (J per metre width)
     status: str = "ok"  # "ok" or "diverged: <reason>"
     stopped_at_s: float | None = None
+    final_stress: np.ndarray | None = None  # [N, 4] σxx σyy σzz τxy when it finished or stopped
     steps: int = 0
     wall_s: float = 0.0
     notes: list[str] = field(default_factory=list)
@@ -159,8 +160,13 @@ def energies(particles: Particles, gravity: float, batches: int) -> torch.Tensor
 
 
 def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | None = None,
-              frame_interval_s: float | None = None) -> list[RunResult]:
-    """Simulate every case (same grid and constraints) to ``duration_s``; one result per case."""
+              frame_interval_s: float | None = None,
+              initial_velocity: list[np.ndarray] | None = None) -> list[RunResult]:
+    """Simulate every case (same grid and constraints) to ``duration_s``; one result per case.
+
+    ``duration_s`` and ``frame_interval_s`` default to the case's; ``initial_velocity`` gives
+    each case's particles a starting velocity [N, 2] (they start at rest otherwise).
+    """
     start_wall = time.perf_counter()
     device = torch.device(settings.device)
     grid = grid_of(cases[0])
@@ -171,6 +177,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     gravity_vector = cases[0].config["external_loading_conditions"]["gravity"]
     dtype = getattr(torch, settings.dtype)
     gravity = (float(gravity_vector[0]), float(gravity_vector[1]))
+    damping = float(cases[0].config["analysis"].get("damping", {}).get("damping_factor", 0.0))
     g = abs(gravity[1])
     meta = cases[0].meta
     frame_interval_s = frame_interval_s or meta["frame_interval_s"]
@@ -179,11 +186,15 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     shape = SHAPE_FUNCTIONS[settings.shape_function]
 
     particles = particles_of(cases, settings, device)
+    if initial_velocity is not None:
+        start = torch.as_tensor(np.concatenate(initial_velocity), dtype=dtype, device=device)
+        particles.vx, particles.vy = start[:, 0].contiguous(), start[:, 1].contiguous()
     counts = [len(case.positions) for case in cases]
     live = list(range(len(cases)))  # case index of each batch slot
     frames = [[case.positions.astype(np.float32)] for case in cases]
     history = [[] for _ in cases]
     results: list[RunResult | None] = [None] * len(cases)
+    last_stress: list[np.ndarray | None] = [None] * len(cases)
     initial = energies(particles, g, len(cases))
     for b in range(len(cases)):
         history[b].append(initial[b].cpu().numpy())
@@ -203,7 +214,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
             weights = shape(particles.x, particles.y, grid)
             if not bool(weights.inside.all()):
                 left_grid.index_add_(0, particles.batch, (~weights.inside).long())
-            substep(particles, weights, grid, repeated, gravity, len(live), dt, settings.pic_blend)
+            substep(particles, weights, grid, repeated, gravity, len(live), dt, settings.pic_blend, damping)
         steps += substeps
         now = frame * frame_interval_s
         energy = energies(particles, g, len(live))
@@ -213,6 +224,8 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
         positions = torch.stack([particles.x, particles.y], 1).cpu().numpy().astype(np.float32)
         live_counts = [counts[c] for c in live]
         split = np.split(positions, np.cumsum(live_counts)[:-1])
+        stress_split = np.split(torch.stack([particles.sxx, particles.syy, particles.szz, particles.txy], 1).cpu().numpy(),
+                                np.cumsum(live_counts)[:-1])
         keep = torch.ones(len(live), dtype=torch.bool, device=device)
         energy_np = energy.cpu().numpy()
         for slot, case_index in enumerate(live):
@@ -234,6 +247,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
             kinetic = energy[slot, 0]
             peak[case_index] = torch.maximum(peak[case_index], kinetic)
             quiet[case_index] = quiet[case_index] + frame_interval_s if kinetic < settings.early_stop_fraction * peak[case_index] else 0.0
+            last_stress[case_index] = stress_split[slot]
             if settings.early_stop and quiet[case_index] >= settings.early_stop_duration_s - 1e-9:
                 results[case_index] = RunResult(np.empty(0), np.empty(0), np.empty(0), stopped_at_s=now)
                 keep[slot] = False
@@ -255,6 +269,6 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
         stored += [stored[-1]] * (n_frames - len(stored))
         energy_rows += [energy_rows[-1]] * (n_frames - len(energy_rows))
         result.positions, result.time_s, result.energies = np.stack(stored), time_s, np.stack(energy_rows)
-        result.steps, result.wall_s = steps, wall
+        result.steps, result.wall_s, result.final_stress = steps, wall, last_stress[case_index]
         out.append(result)
     return out

@@ -120,16 +120,22 @@ def _floor_friction(ax: torch.Tensor, ay: torch.Tensor, vx: torch.Tensor, bounda
 
 
 def grid_update(particles: Particles, weights: Weights, nodal: Nodal, gravity: tuple[float, float],
-                boundary: Boundary, dt: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Nodal acceleration and new velocity (x and y) from internal and gravity forces, friction, constraints."""
+                boundary: Boundary, dt: float, damping: float = 0.0) -> tuple[torch.Tensor, ...]:
+    """Nodal acceleration and new velocity (x and y) from internal and gravity forces, friction, constraints.
+
+    ``damping`` is CB-Geo's Cundall factor α: the unbalanced force f becomes f − α·|f|·sign(v).
+    """
     size = nodal.mass.shape[0]
     v = particles.volume
     weighted_mass = weights.value * particles.mass
     fx = -v * (particles.sxx * weights.grad_x + particles.txy * weights.grad_y) + weighted_mass * gravity[0]
     fy = -v * (particles.txy * weights.grad_x + particles.syy * weights.grad_y) + weighted_mass * gravity[1]
     inverse = torch.where(nodal.active, 1.0 / nodal.mass.clamp_min(MASS_TOLERANCE), 0.0)
-    ax = _scatter(nodal.flat, fx, size) * inverse
-    ay = _scatter(nodal.flat, fy, size) * inverse
+    force_x, force_y = _scatter(nodal.flat, fx, size), _scatter(nodal.flat, fy, size)
+    if damping:
+        magnitude = damping * torch.sqrt(force_x ** 2 + force_y ** 2)
+        force_x, force_y = force_x - magnitude * torch.sign(nodal.vx), force_y - magnitude * torch.sign(nodal.vy)
+    ax, ay = force_x * inverse, force_y * inverse
     ax = _floor_friction(ax, ay, nodal.vx, boundary, dt).masked_fill(boundary.fixed_x, 0.0)
     ay = ay.masked_fill(boundary.fixed_y, 0.0)
     return ax, ay, (nodal.vx + dt * ax).masked_fill(boundary.fixed_x, 0.0), (nodal.vy + dt * ay).masked_fill(boundary.fixed_y, 0.0)
@@ -149,9 +155,10 @@ def g2p(particles: Particles, weights: Weights, nodal: Nodal, nodal_update: tupl
 
 
 def substep(particles: Particles, weights: Weights, grid: RegularGrid, boundary: Boundary,
-            gravity: tuple[float, float], batches: int, dt: float, pic_blend: float) -> torch.Tensor:
+            gravity: tuple[float, float], batches: int, dt: float, pic_blend: float, damping: float = 0.0) -> torch.Tensor:
     """Advance every realization by ``dt`` (``boundary`` already repeated per batch); returns yielding."""
     nodal = p2g(particles, weights, grid, boundary, batches)
     yielded = stress_update(particles, weights, nodal, dt)
-    g2p(particles, weights, nodal, grid_update(particles, weights, nodal, gravity, boundary, dt), dt, pic_blend)
+    update = grid_update(particles, weights, nodal, gravity, boundary, dt, damping)
+    g2p(particles, weights, nodal, update, dt, pic_blend)
     return yielded

@@ -1,0 +1,32 @@
+"""Build CB-Geo case directories for analytic MPM checks from a polygon and a constant friction."""
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+
+from rgns.cbgeo.case import Case, read_case
+from rgns.cbgeo.writer import write_case
+from rgns.config import load_config
+from rgns.fields import FieldGrid, FrictionField
+from rgns.geometry import Scene, seed_particles
+
+DEFAULT_MPM = load_config()["mpm"]
+ELASTIC = {"cohesion_pa": 1e9, "tension_cutoff_pa": 1e9}  # strength so high the soil never yields
+
+
+def polygon_case(directory: Path, vertices, length_m: float, height_m: float, cell_size_m: float = 0.5,
+                 particles_per_cell: int = 2, friction_deg: float = 30.0, index: int = 0, **mpm) -> Case:
+    """Write and read back the case of one polygon of uniform soil; ``mpm`` overrides mpm settings."""
+    vertices = np.asarray(vertices, dtype=float)
+    settings = copy.deepcopy(DEFAULT_MPM)
+    settings.update(mpm)
+    positions, volumes = seed_particles(vertices, cell_size_m, particles_per_cell)
+    scene = Scene("test", index, "polygon", vertices, positions, volumes, length_m, height_m, cell_size_m,
+                  particles_per_cell, 1)
+    grid = FieldGrid.covering(length_m, height_m, cell_size_m)
+    field = FrictionField(grid, np.full(grid.shape, friction_deg), np.full(len(positions), friction_deg),
+                          friction_deg, 0.0, 1.0, 1.0, "constant", 0.0)
+    write_case(directory, scene, field, settings)
+    return read_case(directory)
