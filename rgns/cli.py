@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     mpm.add_argument("--duration", type=float, help="simulated time (s); default: the case's")
     mpm.add_argument("--shape", choices=["linear", "bspline"], default="linear")
     mpm.add_argument("--cfl", type=float, default=0.2)
-    mpm.add_argument("--dt-max", type=float, default=1e-3)
+    mpm.add_argument("--dt-max", type=float, default=2.5e-3)
     mpm.add_argument("--pic-blend", type=float, default=0.0)
     mpm.add_argument("--no-early-stop", action="store_true")
     mpm.add_argument("--dtype", choices=["float64", "float32"], default="float64")

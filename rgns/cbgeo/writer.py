@@ -10,7 +10,8 @@ rgns's embedded engine read the same files. Layout (names fixed here, in ``mpm.j
   per friction bin (the generator's set is 0, so no id collides).
 * ``particles-friction-deg.txt``: the exact friction angle per particle (rgns's own; CB-Geo
   ignores it) so the embedded engine can use exact values instead of the bins.
-* ``rgns-case.json``: which realization this is, the domain and the frame interval (rgns's own).
+* ``rgns-case.json``: which realization this is, its polygon, the domain and the frame interval
+  (rgns's own).
 """
 from __future__ import annotations
 
@@ -224,6 +225,7 @@ def write_case(directory: str | Path, scene: Scene, field: FrictionField, settin
         "set_name": scene.set_name,
         "index": scene.index,
         "family": scene.family,
+        "vertices": scene.vertices.tolist(),
         "domain_length_m": scene.domain_length_m,
         "domain_height_m": scene.domain_height_m,
         "cell_size_m": scene.cell_size_m,

@@ -33,7 +33,7 @@ class EngineSettings:
 
     shape_function: str = "linear"
     cfl: float = 0.2
-    dt_max_s: float = 1e-3
+    dt_max_s: float = 2.5e-3
     pic_blend: float = 0.0
     early_stop: bool = True
     early_stop_fraction: float = 0.01
