@@ -26,6 +26,7 @@ include: "rules/geometry.smk"
 include: "rules/fields.smk"
 include: "rules/mpm.smk"
 include: "rules/dataset.smk"
+include: "rules/gns.smk"
 
 
 rule dataset:
@@ -36,10 +37,11 @@ rule dataset:
 
 
 rule hazard_map:
-    """Everything built so far for the hazard map: scene previews and the MPM dataset."""
+    """Everything built so far for the hazard map: scene previews, the MPM dataset, the trained GNS."""
     input:
         expand("results/plots/{set}/scenes.png", set=SETS),
         rules.dataset.input,
+        rules.train.output,
 
 
 rule paraview:

@@ -59,6 +59,20 @@ def _mpm(args: argparse.Namespace) -> int:
     return 0 if all(result.status == "ok" for result in results) else 3
 
 
+def _train(args: argparse.Namespace) -> int:
+    import logging
+
+    from rgns.gns.train import init_distributed_from_environment, settings_from_config, train
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    config = load_config(args.config)
+    model, settings = settings_from_config(config["gns"], config["mesh"]["cell_size_m"])
+    init_distributed_from_environment()  # under torchrun: one process per GPU, gradients averaged
+    summary = train(model, settings, str(args.train), str(args.valid), args.out)
+    print(f"trained {summary['steps']} steps in {summary['wall_s']:.0f} s (resumed from {summary['resumed_from']})")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="rgns", description="rgns workflow helpers")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -81,6 +95,12 @@ def main(argv: list[str] | None = None) -> int:
     mpm.add_argument("--device", default="cpu")
     mpm.add_argument("--threads", type=int, default=1)
     mpm.set_defaults(run=_mpm)
+    trainer = commands.add_parser("train", help="train the GNS (resumes from OUT/checkpoints); works under torchrun")
+    trainer.add_argument("config", type=Path)
+    trainer.add_argument("--train", type=Path, required=True, help="packed training set (dataset/train.h5)")
+    trainer.add_argument("--valid", type=Path, required=True, help="packed validation set (dataset/valid.h5)")
+    trainer.add_argument("--out", type=Path, required=True, help="directory for gns.pt, history.csv, checkpoints/")
+    trainer.set_defaults(run=_train)
     args = parser.parse_args(argv)
     return args.run(args)
 

@@ -46,3 +46,23 @@ def plot_scenes(scenes: list[Scene], fields: list[FrictionField], path: str | Pa
     figure.colorbar(points, ax=axes, label="friction angle (deg)", shrink=0.8)
     figure.savefig(path, dpi=120)
     plt.close(figure)
+
+
+def plot_learning_curve(history_csv: str | Path, path: str | Path) -> None:
+    """Training loss, validation one-step loss and validation rollout error against step."""
+    import pandas as pd
+
+    history = pd.read_csv(history_csv)
+    figure, (loss_axis, error_axis) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    loss_axis.semilogy(history["step"], history["train_loss"], label="training (noisy one-step)")
+    if "valid_one_step_loss" in history:
+        valid = history.dropna(subset=["valid_one_step_loss"])
+        loss_axis.semilogy(valid["step"], valid["valid_one_step_loss"], "o-", label="validation one-step")
+        error_axis.plot(valid["step"], valid["valid_rollout_error_m"], "o-", color="C2")
+    loss_axis.set_xlabel("step")
+    loss_axis.set_ylabel("MSE of normalised acceleration")
+    loss_axis.legend()
+    error_axis.set_xlabel("step")
+    error_axis.set_ylabel("validation rollout position error (m)")
+    figure.savefig(path, dpi=110)
+    plt.close(figure)

@@ -24,7 +24,7 @@ rule gns_export:
         valid="results/dataset/gns/valid.npz",
         metadata="results/dataset/gns/metadata.json",
     params:
-        radius_m=config["dataset"]["connectivity_radius_cells"] * config["mesh"]["cell_size_m"],
+        radius_m=config["gns"]["connectivity_radius_cells"] * config["mesh"]["cell_size_m"],
     log:
         "logs/gns_export/export.log",
     conda:

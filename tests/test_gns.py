@@ -1,0 +1,253 @@
+"""The graph network simulator: graphs, symmetries, training, resume, DDP, rollout."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import torch
+import torch.distributed as dist
+import torch.multiprocessing as mp
+
+from rgns.gns.data import WindowSampler
+from rgns.gns.graph import brute_force_graph, radius_graph
+from rgns.gns.rollout import RolloutSettings, rollout
+from rgns.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, Normalization, OneStepLoss
+from rgns.gns.train import TrainSettings, learning_rate, load_simulator, train
+from rgns.trajectories import SOIL, Trajectory, pack, write_trajectory
+from conftest import REPO
+
+NORMALIZATION = Normalization([0.0, -0.01], [0.02, 0.03], [0.0, -0.001], [0.002, 0.003], 0.6, 0.1)
+SMALL = ModelSettings(latent_size=16, mlp_width=16, mlp_hidden_layers=2, message_passing_steps=3, history=3,
+                      radius_m=1.2)
+
+
+@pytest.fixture(autouse=True)
+def one_thread():
+    torch.set_num_threads(1)
+
+
+def _edges(senders: torch.Tensor, receivers: torch.Tensor) -> set:
+    return set(zip(senders.tolist(), receivers.tolist()))
+
+
+@pytest.mark.parametrize("radius", [0.3, 1.0, 2.5])
+@pytest.mark.parametrize("graphs", [1, 4])
+def test_cell_list_search_finds_exactly_the_brute_force_pairs(radius, graphs):
+    generator = torch.Generator().manual_seed(int(radius * 10) + graphs)
+    positions = torch.rand(1500, 2, generator=generator, dtype=torch.float64) * torch.tensor([30.0, 8.0]) - 3.0
+    positions[:20] = positions[20:40] + 1e-3  # near-duplicates
+    positions[40, :] = positions[41, :]  # an exact duplicate
+    batch = torch.randint(0, graphs, (1500,), generator=generator)
+    found = _edges(*radius_graph(positions, batch, radius))
+    assert found == _edges(*brute_force_graph(positions, batch, radius))
+    assert len(found) == len(radius_graph(positions, batch, radius)[0])  # no duplicates
+
+
+def _graph(generator: torch.Generator, n: int = 120) -> GraphInput:
+    start = torch.rand(n, 2, generator=generator) * torch.tensor([8.0, 4.0]) + 1.0
+    steps = torch.cumsum(torch.randn(n, SMALL.history, 2, generator=generator) * 0.02, dim=1)
+    positions = torch.cat([start[:, None], start[:, None] + steps], dim=1)
+    return GraphInput(positions, torch.full((n,), SOIL), 0.5 + 0.2 * torch.rand(n, generator=generator),
+                      torch.zeros(n, dtype=torch.long), 1)
+
+
+def test_the_model_is_equivariant_to_particle_permutation():
+    generator = torch.Generator().manual_seed(0)
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 30.0], [0.0, 10.0]]))
+    graph = _graph(generator)
+    order = torch.randperm(len(graph.batch), generator=generator)
+    permuted = GraphInput(graph.positions[order], graph.particle_type[order], graph.tan_friction[order],
+                          graph.batch[order], 1)
+    torch.testing.assert_close(simulator.next_positions(permuted), simulator.next_positions(graph)[order],
+                               rtol=1e-5, atol=1e-5)
+
+
+def test_the_model_is_invariant_to_translation_away_from_walls():
+    generator = torch.Generator().manual_seed(1)
+    # walls far away: the clipped wall distances are all at +1 before and after the shift
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[-100.0, 100.0], [-100.0, 100.0]]))
+    graph = _graph(generator)
+    shift = torch.tensor([3.7, -2.1])
+    moved = GraphInput(graph.positions + shift, graph.particle_type, graph.tan_friction, graph.batch, 1)
+    torch.testing.assert_close(simulator.next_positions(moved), simulator.next_positions(graph) + shift,
+                               rtol=1e-5, atol=1e-4)
+
+
+def test_learning_rate_decays_exponentially_to_its_floor():
+    settings = TrainSettings(learning_rate=1e-3, learning_rate_min=1e-6, decay_rate=0.1, decay_steps=1000)
+    assert learning_rate(settings, 0) == pytest.approx(1e-3)
+    assert learning_rate(settings, 1000) == pytest.approx(1e-6 + (1e-3 - 1e-6) * 0.1)
+    assert learning_rate(settings, 10 ** 7) == pytest.approx(1e-6)
+
+
+def _sliding_trajectory(index: int, frames: int = 40) -> Trajectory:
+    """A sheared block of particles sliding and slowing down: v_x(t) = v0(y)·exp(−k t), with the
+    decay k growing with tan φ, so the acceleration −k·v_x is a function of the inputs."""
+    x, y = np.meshgrid(np.arange(2.0, 8.0, 0.5), np.arange(0.25, 3.0, 0.5))
+    start = np.column_stack([x.ravel(), y.ravel()])
+    friction_deg = 25.0 + 5 * index
+    k = 0.2 * np.tan(np.radians(friction_deg))
+    v0 = (0.05 + 0.02 * index) * (1 + 0.2 * start[:, 1])
+    t = np.arange(frames, dtype=float)[:, None]
+    positions = np.repeat(start[None], frames, axis=0)
+    positions[:, :, 0] += v0 / k * (1 - np.exp(-k * t))
+    n = len(start)
+    return Trajectory(positions, t[:, 0] * 0.025, np.full(n, SOIL), np.full(n, friction_deg), np.full(n, 0.25),
+                      np.full(n, 450.0), 0.025, np.array([[0.0, 20.0], [0.0, 10.0]]), "test", "train", index)
+
+
+@pytest.fixture(scope="module")
+def tiny_dataset(tmp_path_factory):
+    directory = tmp_path_factory.mktemp("gns_data")
+    packed = {}
+    for name, indices in (("train", [0, 1, 2]), ("valid", [3])):
+        paths = []
+        for index in indices:
+            paths.append(directory / f"{name}{index}.h5")
+            write_trajectory(paths[-1], _sliding_trajectory(index))
+        packed[name] = str(directory / f"{name}.h5")
+        pack(paths, packed[name], name)
+    return packed
+
+
+def test_training_on_a_tiny_dataset_lowers_the_loss_by_a_large_factor(tiny_dataset, tmp_path):
+    settings = TrainSettings(steps=800, batch_graphs=2, learning_rate=3e-3, noise_std=0.0, log_every=25,
+                             validate_every=800, checkpoint_every=800, validation_rollout_frames=10)
+    summary = train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
+    history = (tmp_path / "history.csv").read_text().splitlines()
+    losses = [float(line.split(",")[history[0].split(",").index("train_loss")]) for line in history[1:]]
+    print(f"loss {losses[0]:.4g} -> {losses[-1]:.4g} in {summary['wall_s']:.1f} s")
+    assert losses[-1] < losses[0] / 20
+    simulator = load_simulator(tmp_path / "gns.pt")
+    assert simulator.settings == SMALL
+
+
+def _ddp_worker(rank: int, world: int, init_file: str, batches: list, out: str) -> None:
+    dist.init_process_group("gloo", init_method=f"file://{init_file}", rank=rank, world_size=world)
+    torch.manual_seed(0)
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 30.0], [0.0, 10.0]]))
+    wrapped = torch.nn.parallel.DistributedDataParallel(OneStepLoss(simulator))
+    optimizer = torch.optim.Adam(simulator.parameters(), lr=1e-3)
+    for step_batches in batches:
+        graph, target = step_batches[rank]
+        loss = wrapped(graph, target, torch.zeros_like(graph.positions))
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    torch.save(simulator.state_dict(), f"{out}.{rank}")
+    dist.destroy_process_group()
+
+
+def _combine(parts: list[tuple[GraphInput, torch.Tensor]]) -> tuple[GraphInput, torch.Tensor]:
+    graphs = [g for g, _ in parts]
+    batch = torch.cat([g.batch + i for i, g in enumerate(graphs)])
+    combined = GraphInput(torch.cat([g.positions for g in graphs]), torch.cat([g.particle_type for g in graphs]),
+                          torch.cat([g.tan_friction for g in graphs]), batch, len(graphs))
+    return combined, torch.cat([t for _, t in parts])
+
+
+def test_two_process_ddp_averages_gradients_like_one_process_on_the_combined_batch(tmp_path):
+    generator = torch.Generator().manual_seed(5)
+    batches = []
+    for _ in range(3):
+        step = []
+        for _rank in range(2):
+            graph = _graph(generator, n=60 + int(torch.randint(0, 40, (1,), generator=generator)))
+            step.append((graph, graph.positions[:, -1] + 0.01 * torch.randn(len(graph.batch), 2, generator=generator)))
+        batches.append(step)
+    out = str(tmp_path / "params")
+    mp.spawn(_ddp_worker, args=(2, str(tmp_path / "init"), batches, out), nprocs=2, join=True)
+    rank0, rank1 = torch.load(f"{out}.0"), torch.load(f"{out}.1")
+    torch.manual_seed(0)
+    single = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 30.0], [0.0, 10.0]]))
+    objective = OneStepLoss(single)
+    optimizer = torch.optim.Adam(single.parameters(), lr=1e-3)
+    for step in batches:
+        graph, target = _combine(step)
+        loss = objective(graph, target, torch.zeros_like(graph.positions))
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    initial = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 30.0], [0.0, 10.0]])).state_dict()
+    moved = False
+    for name, value in single.state_dict().items():
+        torch.testing.assert_close(rank0[name], rank1[name], rtol=0, atol=0)  # identical on both ranks
+        torch.testing.assert_close(rank0[name], value, rtol=1e-5, atol=1e-6)  # = one process, combined batch
+        moved |= not torch.equal(value, initial[name])
+    assert moved
+
+
+def test_a_killed_training_resumes_from_its_last_checkpoint(tiny_dataset, tmp_path):
+    script = f"""
+import sys
+sys.path.insert(0, {str(REPO)!r})
+import logging, torch
+logging.basicConfig(level=logging.INFO, stream=sys.stdout, format="%(message)s", force=True)
+torch.set_num_threads(1)
+from rgns.gns.simulator import ModelSettings
+from rgns.gns.train import TrainSettings, train
+model = ModelSettings(**{SMALL.__dict__!r})
+settings = TrainSettings(steps=int(sys.argv[1]), batch_graphs=1, log_every=10, validate_every=10_000,
+                         checkpoint_every=20, validation_rollout_frames=5)
+train(model, settings, {tiny_dataset['train']!r}, {tiny_dataset['valid']!r}, {str(tmp_path)!r})
+"""
+    first = subprocess.Popen([sys.executable, "-c", script, "100000"], stdout=subprocess.PIPE, text=True)
+    checkpoint = tmp_path / "checkpoints" / "latest.pt"
+    deadline = time.time() + 120
+    while time.time() < deadline:
+        if checkpoint.exists() and torch.load(checkpoint, weights_only=False)["step"] >= 40:
+            break
+        time.sleep(0.2)
+    first.send_signal(signal.SIGKILL)
+    first.wait()
+    saved = torch.load(checkpoint, weights_only=False)["step"]
+    assert saved >= 40 and saved % 20 == 0
+    resumed = subprocess.run([sys.executable, "-c", script, str(saved + 40)], capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"resumed from step {saved} of {saved + 40}" in resumed.stdout
+    assert f"step {saved + 10}/{saved + 40}" in resumed.stdout and "step 10/" not in resumed.stdout
+    assert torch.load(checkpoint, weights_only=False)["step"] == saved + 40
+    assert (tmp_path / "gns.pt").exists()
+
+
+def test_batched_rollout_matches_one_realization_at_a_time_and_flags_divergence(tiny_dataset):
+    torch.manual_seed(3)
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
+    sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
+    starts = [sampler.frames_of(k, 0, SMALL.history + 1) for k in range(3)]
+    types = [t.numpy() for t in sampler.particle_type]
+    friction = [f.numpy() for f in sampler.tan_friction]
+    together = rollout(simulator, starts, types, friction, 20)
+    for k in range(3):
+        alone = rollout(simulator, [starts[k]], [types[k]], [friction[k]], 20)[0]
+        np.testing.assert_allclose(together[k].positions, alone.positions, atol=1e-4)
+    runaway = [s.copy() for s in starts]
+    runaway[1][-1] += np.array([50.0, 0.0])  # a last step of 50 m per frame: leaves the domain at once
+    flagged = rollout(simulator, runaway, types, friction, 20)
+    assert flagged[1].status.startswith("diverged") and flagged[0].status == flagged[2].status == "ok"
+    assert flagged[1].positions.shape == flagged[0].positions.shape
+
+
+def test_rest_skipping_leaves_particles_at_rest_untouched_and_saves_work(tiny_dataset):
+    torch.manual_seed(4)
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
+    sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
+    start = sampler.frames_of(0, 0, SMALL.history + 1)
+    start[:] = start[0]  # everything at rest
+    start[:, :5] += np.arange(SMALL.history + 1)[:, None, None] * np.array([0.05, 0.0])  # five particles moving
+    types, friction = [sampler.particle_type[0].numpy()], [sampler.tan_friction[0].numpy()]
+    frames = SMALL.history + 2  # one predicted frame
+    skipped = rollout(simulator, [start], types, friction, frames, RolloutSettings(skip_rest=True))[0]
+    full = rollout(simulator, [start], types, friction, frames)[0]
+    last = start[-1]
+    distance = np.linalg.norm(last[:, None] - last[None, :5], axis=2).min(axis=1)
+    resting_neighbourhood = distance > SMALL.radius_m
+    np.testing.assert_array_equal(skipped.positions[-1, resting_neighbourhood], last[resting_neighbourhood])
+    np.testing.assert_allclose(skipped.positions[-1, :5], full.positions[-1, :5], atol=1e-5)
+    assert not np.allclose(full.positions[-1, resting_neighbourhood], last[resting_neighbourhood])  # untrained: drifts
+    assert skipped.node_updates < full.node_updates / 2

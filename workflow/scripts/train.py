@@ -1,0 +1,18 @@
+"""Rule train: train (or resume) the GNS, then evaluate it on the validation set."""
+import json
+from pathlib import Path
+
+from rgns.gns.evaluate import evaluate
+from rgns.gns.train import load_simulator, settings_from_config, train
+from rgns.logsetup import log_to_file
+from rgns.plots import plot_learning_curve
+
+log = log_to_file(snakemake.log[0])
+model, settings = settings_from_config(snakemake.params.gns, snakemake.params.cell_size_m)
+out_dir = Path(snakemake.output.model).parent
+summary = train(model, settings, snakemake.input.train, snakemake.input.valid, out_dir, snakemake.output.model)
+plot_learning_curve(snakemake.output.history, snakemake.output.curve)
+evaluation = evaluate(load_simulator(snakemake.output.model, settings.device), snakemake.input.valid) | summary
+Path(snakemake.output.evaluation).write_text(json.dumps(evaluation, indent=2) + "\n")
+log.info("trained %d steps in %.0f s; validation one-step error %.4g m, rollout mean error %.4g m",
+         summary["steps"], summary["wall_s"], evaluation["one_step_error_m"], evaluation["rollout_mean_error_m"])
