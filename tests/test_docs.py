@@ -30,5 +30,5 @@ def test_every_rule_in_the_readme_data_flow_exists():
     rules = "".join(path.read_text() for path in (REPO / "rules").glob("*.smk")) + (REPO / "Snakefile").read_text()
     readme = (REPO / "README.md").read_text()
     for rule in ("geometry", "random_field", "scene_preview", "mpm_input", "mpm_run", "pack", "gns_export",
-                 "paraview_series", "hazard_map"):
+                 "paraview_series", "train", "hazard_map"):
         assert f"rule {rule}:" in rules and f"`{rule}`" in readme

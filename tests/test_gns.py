@@ -251,3 +251,11 @@ def test_rest_skipping_leaves_particles_at_rest_untouched_and_saves_work(tiny_da
     np.testing.assert_allclose(skipped.positions[-1, :5], full.positions[-1, :5], atol=1e-5)
     assert not np.allclose(full.positions[-1, resting_neighbourhood], last[resting_neighbourhood])  # untrained: drifts
     assert skipped.node_updates < full.node_updates / 2
+
+
+def test_a_missing_or_corrupt_model_file_is_named(tmp_path):
+    with pytest.raises(ValueError, match=r"nothing.pt: not a usable GNS model file"):
+        load_simulator(tmp_path / "nothing.pt")
+    (tmp_path / "broken.pt").write_bytes(b"not a torch file")
+    with pytest.raises(ValueError, match=r"broken.pt: not a usable GNS model file"):
+        load_simulator(tmp_path / "broken.pt")

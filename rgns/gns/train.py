@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import logging
 import os
+import pickle
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -97,7 +98,7 @@ def load_simulator(path: str | Path, device: str = "cpu") -> LearnedSimulator:
         simulator = LearnedSimulator(ModelSettings(**config["settings"]), Normalization(**config["normalization"]),
                                      np.array(config["bounds"]))
         simulator.load_state_dict(state["model"])
-    except (OSError, KeyError, RuntimeError, TypeError, EOFError) as error:
+    except (OSError, KeyError, RuntimeError, TypeError, EOFError, pickle.UnpicklingError) as error:
         raise ValueError(f"{path}: not a usable GNS model file ({type(error).__name__}: {error})") from error
     return simulator.to(device)
 
