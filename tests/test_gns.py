@@ -259,3 +259,14 @@ def test_a_missing_or_corrupt_model_file_is_named(tmp_path):
     (tmp_path / "broken.pt").write_bytes(b"not a torch file")
     with pytest.raises(ValueError, match=r"broken.pt: not a usable GNS model file"):
         load_simulator(tmp_path / "broken.pt")
+
+
+def test_rest_skipping_a_realization_entirely_at_rest_keeps_it_still(tiny_dataset):
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
+    sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
+    start = sampler.frames_of(0, 0, SMALL.history + 1)
+    start[:] = start[0]
+    result = rollout(simulator, [start], [sampler.particle_type[0].numpy()], [sampler.tan_friction[0].numpy()],
+                     SMALL.history + 4, RolloutSettings(skip_rest=True))[0]
+    np.testing.assert_array_equal(result.positions, np.repeat(start[:1], SMALL.history + 4, axis=0))
+    assert result.node_updates == 0

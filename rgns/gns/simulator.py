@@ -85,7 +85,7 @@ class LearnedSimulator(nn.Module):
         walls = torch.cat([last - self.bounds[:, 0], self.bounds[:, 1] - last], dim=1) / radius
         norm = self.normalization
         tan_friction = (graph.tan_friction - norm.tan_friction_mean) / norm.tan_friction_std
-        nodes = torch.cat([velocities.reshape(len(last), -1), walls.clamp(-1.0, 1.0),
+        nodes = torch.cat([velocities.flatten(1), walls.clamp(-1.0, 1.0),
                            self.type_embedding(graph.particle_type), tan_friction[:, None]], dim=1)
         displacement = (last[senders] - last[receivers]) / radius
         edges = torch.cat([displacement, displacement.norm(dim=1, keepdim=True)], dim=1)

@@ -40,7 +40,7 @@ class TrainSettings:
     learning_rate_min: float = 1e-6
     decay_rate: float = 0.1
     decay_steps: int = 5000
-    noise_std: float = 6.7e-4
+    noise_std: float = 2e-4
     pushforward_steps: int = 0
     checkpoint_every: int = 200
     validate_every: int = 200
