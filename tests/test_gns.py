@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -270,3 +271,14 @@ def test_rest_skipping_a_realization_entirely_at_rest_keeps_it_still(tiny_datase
                      SMALL.history + 4, RolloutSettings(skip_rest=True))[0]
     np.testing.assert_array_equal(result.positions, np.repeat(start[:1], SMALL.history + 4, axis=0))
     assert result.node_updates == 0
+
+
+def test_a_checkpoint_from_other_settings_is_set_aside_not_resumed(tiny_dataset, tmp_path):
+    quick = TrainSettings(steps=20, batch_graphs=1, log_every=10, validate_every=10_000, checkpoint_every=10,
+                          validation_rollout_frames=5)
+    train(SMALL, quick, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
+    assert train(SMALL, replace(quick, steps=30), tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["resumed_from"] == 20
+    changed = replace(quick, learning_rate=5e-4, steps=30)
+    summary = train(SMALL, changed, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
+    assert summary["resumed_from"] == 0
+    assert list((tmp_path / "checkpoints").glob("stale-*.pt"))  # nothing already computed is lost

@@ -9,6 +9,7 @@ or ``processes > 1`` for gloo on CPU) the loss module is wrapped in DistributedD
 from __future__ import annotations
 
 import csv
+import json
 import logging
 import os
 import pickle
@@ -122,6 +123,17 @@ def validate(simulator: LearnedSimulator, sampler: WindowSampler, settings: Trai
     return {"valid_one_step_loss": one_step, "valid_rollout_error_m": float(np.mean(errors))}
 
 
+RESUME_NEUTRAL = ("steps", "checkpoint_every", "validate_every", "validation_windows", "validation_rollout_frames",
+                  "log_every", "device", "threads")
+
+
+def fingerprint(simulator: LearnedSimulator, settings: TrainSettings) -> str:
+    """What a checkpoint must share with this run to be resumed: architecture, normalisation
+    (i.e. the data) and the optimisation settings, but not the step count or bookkeeping."""
+    training = {key: value for key, value in asdict(settings).items() if key not in RESUME_NEUTRAL}
+    return json.dumps({"simulator": simulator.config(), "training": training}, sort_keys=True)
+
+
 def _save(path: Path, state: dict[str, Any]) -> None:
     partial = path.with_suffix(".partial")
     torch.save(state, partial)
@@ -147,12 +159,19 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
     optimizer = torch.optim.Adam(simulator.parameters(), lr=settings.learning_rate)
     start, history, elapsed = 0, [], 0.0
     latest = checkpoints / CHECKPOINT
-    if latest.exists():
-        state = torch.load(latest, map_location=device, weights_only=False)
+    state = torch.load(latest, map_location=device, weights_only=False) if latest.exists() else None
+    if state is not None and state.get("fingerprint") != fingerprint(simulator, settings):
+        stale = latest.with_name(f"stale-{int(time.time())}.pt")
+        latest.replace(stale)
+        log.warning("%s was made with other settings or data: kept as %s, training from scratch", latest, stale)
+        state = None
+    if state is not None:
         simulator.load_state_dict(state["model"])
         optimizer.load_state_dict(state["optimizer"])
         start, history, elapsed = state["step"], state["history"], state["elapsed_s"]
         log.info("resumed from step %d of %d (%s)", start, settings.steps, latest)
+        if start >= settings.steps:
+            log.info("the checkpoint is at step %d, beyond the %d asked for: nothing to train", start, settings.steps)
     else:
         log.info("training from scratch: %d steps, %d parameters", settings.steps,
                  sum(p.numel() for p in simulator.parameters()))
@@ -191,7 +210,7 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
         if rank == 0 and (done % settings.checkpoint_every == 0 or done == settings.steps):
             _save(latest, {"model": simulator.state_dict(), "optimizer": optimizer.state_dict(), "step": done,
                            "history": history, "elapsed_s": time.perf_counter() - began,
-                           "simulator": simulator.config()})
+                           "simulator": simulator.config(), "fingerprint": fingerprint(simulator, settings)})
     summary = {"steps": settings.steps, "wall_s": time.perf_counter() - began, "resumed_from": start}
     if rank == 0:
         _save(Path(final_model or out_dir / "gns.pt"),
