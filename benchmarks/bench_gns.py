@@ -31,14 +31,15 @@ from rgns.gns.train import load_simulator
 from rgns.metrics import runout_distance
 
 
-def realizations(paths: list[str], history: int) -> list[dict]:
+def realizations(paths: list[str], history: int, frames: int | None, limit: int | None) -> list[dict]:
     out = []
     for path in paths:
         sampler = WindowSampler(path, history)
         for k in range(sampler.n_trajectories):
-            out.append({"truth": sampler.frames_of(k, 0, sampler.frames), "type": sampler.particle_type[k].numpy(),
+            count = min(frames or sampler.frames, sampler.frames)
+            out.append({"truth": sampler.frames_of(k, 0, count), "type": sampler.particle_type[k].numpy(),
                         "friction": sampler.tan_friction[k].numpy(), "name": f"{Path(path).stem}/{k}"})
-    return out
+    return out[:limit]
 
 
 def run(simulator: LearnedSimulator, cases: list[dict], settings: RolloutSettings, batched: bool) -> dict:
@@ -89,13 +90,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", default="results/model/gns.pt")
     parser.add_argument("--sets", nargs="*", default=sorted(glob.glob("results/dataset/case*.h5")))
+    parser.add_argument("--frames", type=int, help="roll out only the first FRAMES frames (default: all)")
+    parser.add_argument("--max-realizations", type=int, help="use at most this many realizations")
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--paper-scale-steps", type=int, default=0)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
     torch.set_num_threads(1)
     simulator = load_simulator(args.model, args.device)
-    cases = realizations(args.sets, simulator.settings.history)
+    cases = realizations(args.sets, simulator.settings.history, args.frames, args.max_realizations)
     plain = RolloutSettings()
     variants = {"plain": plain, "rest_skip": replace(plain, skip_rest=True), "early_stop": replace(plain, early_stop=True),
                 "rest_skip+early_stop": replace(plain, skip_rest=True, early_stop=True)}

@@ -22,7 +22,7 @@ def test_dry_run_of_the_default_config_prints_the_dag(tmp_path):
     sizes = [sum(group["count"] for group in groups) for groups in config["sets"].values()]
     chunks = sum(-(-size // config["mpm"]["chunk_size"]) for size in sizes)
     assert jobs == {"geometry": sum(sizes), "random_field": sum(sizes), "mpm_input": sum(sizes), "mpm_run": chunks,
-                    "pack": len(sizes), "gns_export": 1, "scene_preview": len(sizes), "hazard_map": 1}
+                    "pack": len(sizes), "gns_export": 1, "scene_preview": len(sizes), "train": 1, "hazard_map": 1}
 
 
 def test_a_bad_config_stops_before_any_job_runs_naming_key_and_value(tmp_path):
