@@ -18,7 +18,7 @@ from rgns.gns.data import WindowSampler
 from rgns.gns.graph import brute_force_graph, radius_graph
 from rgns.gns.rollout import RolloutSettings, rollout
 from rgns.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, Normalization, OneStepLoss
-from rgns.gns.train import TrainSettings, learning_rate, load_simulator, train
+from rgns.gns.train import TrainSettings, learning_rate, load_simulator, pushforward, train
 from rgns.trajectories import SOIL, Trajectory, pack, write_trajectory
 from conftest import REPO
 
@@ -282,3 +282,30 @@ def test_a_checkpoint_from_other_settings_is_set_aside_not_resumed(tiny_dataset,
     summary = train(SMALL, changed, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
     assert summary["resumed_from"] == 0
     assert list((tmp_path / "checkpoints").glob("stale-*.pt"))  # nothing already computed is lost
+
+
+def test_early_stop_ends_a_realization_at_rest_and_repeats_its_last_frame(tiny_dataset):
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
+    sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
+    start = sampler.frames_of(0, 0, SMALL.history + 1)
+    start[:] = start[0]
+    settings = RolloutSettings(skip_rest=True, early_stop=True, early_stop_frames=3)
+    result = rollout(simulator, [start], [sampler.particle_type[0].numpy()], [sampler.tan_friction[0].numpy()],
+                     SMALL.history + 20, settings)[0]
+    assert result.stopped_at_frame == SMALL.history + 3
+    assert result.positions.shape[0] == SMALL.history + 20
+
+
+def test_pushforward_trains_on_the_model_s_own_prediction(tiny_dataset, tmp_path):
+    torch.manual_seed(2)
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
+    window = WindowSampler(tiny_dataset["train"], SMALL.history, target_steps=2).sample(np.random.default_rng(0), 2)
+    graph, target = pushforward(simulator, window.graph, window.targets)
+    with torch.no_grad():
+        predicted = simulator.next_positions(window.graph)
+    torch.testing.assert_close(graph.positions[:, -1], predicted)
+    torch.testing.assert_close(graph.positions[:, :-1], window.graph.positions[:, 1:])
+    torch.testing.assert_close(target, window.targets[:, -1])
+    settings = TrainSettings(steps=30, batch_graphs=2, pushforward_steps=1, log_every=10, validate_every=10_000,
+                             checkpoint_every=30, validation_rollout_frames=5)
+    assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 30

@@ -102,7 +102,7 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
         positions = new.cpu().numpy()
         split = np.split(positions, np.cumsum(counts)[:-1])
         peak = torch.maximum(peak, mean_v2)
-        quiet = torch.where(mean_v2 < settings.early_stop_fraction * peak, quiet + 1, torch.zeros_like(quiet))
+        quiet = torch.where(mean_v2 <= settings.early_stop_fraction * peak, quiet + 1, torch.zeros_like(quiet))
         for b in torch.nonzero(live).squeeze(1).tolist():
             if bad[b]:
                 results[b].status = f"diverged: a particle left the domain or became non-finite at frame {frame}"
