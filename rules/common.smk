@@ -57,11 +57,6 @@ def field_params(wildcards):
     }
 
 
-def all_scene_files(kind, extension):
-    """Every realization's file of one kind ('geometry' or 'fields') over all sets."""
-    return [f"results/{kind}/{name}/{i}.{extension}" for name in SETS for i in set_ids(name)]
-
-
 CASE_KEYS_EXCLUDED = ("engine", "cbgeo")
 
 
