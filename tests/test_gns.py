@@ -1,7 +1,6 @@
 """The graph network simulator: graphs, symmetries, training, resume, DDP, rollout."""
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys

@@ -125,10 +125,9 @@ def particles_of(cases: list[Case], settings: EngineSettings, device: torch.devi
         friction.append(case.friction_deg if settings.friction_source == "exact" else case.binned_friction_deg)
         stresses.append(case.stresses[:, [0, 1, 2, 3]] if case.stresses is not None else np.zeros((len(case.positions), 4)))
     volume = cat([case.volumes for case in cases])
-    like = volume
     material = MohrCoulomb.from_parameters(
         cat(per_material["youngs_modulus"]), cat(per_material["poisson_ratio"]), cat(friction),
-        cat(per_material["dilation"]), cat(per_material["cohesion"]), cat(per_material["tension_cutoff"]), like,
+        cat(per_material["dilation"]), cat(per_material["cohesion"]), cat(per_material["tension_cutoff"]), volume,
     )
     batch = torch.cat([torch.full((len(case.positions),), b, dtype=torch.long, device=device) for b, case in enumerate(cases)])
     position = cat([case.positions for case in cases])
