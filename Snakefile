@@ -27,6 +27,9 @@ include: "rules/fields.smk"
 include: "rules/mpm.smk"
 include: "rules/dataset.smk"
 include: "rules/gns.smk"
+include: "rules/validation.smk"
+include: "rules/montecarlo.smk"
+include: "rules/hazard.smk"
 
 
 rule dataset:
@@ -37,11 +40,10 @@ rule dataset:
 
 
 rule hazard_map:
-    """Everything built so far for the hazard map: scene previews, the MPM dataset, the trained GNS."""
+    """The whole chain: geometry, fields, MPM, dataset, GNS, validation, Monte Carlo, hazard report."""
     input:
-        expand("results/plots/{set}/scenes.png", set=SETS),
         rules.dataset.input,
-        rules.train.output,
+        "results/report/report.html",
 
 
 rule paraview:

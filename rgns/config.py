@@ -135,7 +135,32 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
                     f"config key 'sets.{set_name}[{g}].family' = {group['family']!r}: no such "
                     f"family under geometry.families (have: {', '.join(sorted(families))})"
                 )
+    return errors + _montecarlo_errors(config) + _hazard_errors(config)
+
+
+def _montecarlo_errors(config: dict[str, Any]) -> list[str]:
+    errors = []
+    section = config["montecarlo"]
+    test_cases = [name for name in config["sets"] if name not in ("train", "valid")]
+    for k, case in enumerate(section["cases"]):
+        if case not in test_cases:
+            errors.append(f"config key 'montecarlo.cases[{k}]' = {case!r}: not a test-case set "
+                          f"(test cases: {', '.join(test_cases) or 'none'})")
+        elif len(config["sets"][case]) != 1:
+            errors.append(f"config key 'montecarlo.cases[{k}]' = {case!r}: set {case!r} has "
+                          f"{len(config['sets'][case])} groups; a Monte Carlo case needs exactly one")
+    if section["chunk_size"] % section["batch_size"]:
+        errors.append(f"config key 'montecarlo.chunk_size' = {section['chunk_size']!r}: not a multiple of "
+                      f"montecarlo.batch_size = {section['batch_size']!r} (batches must not straddle chunks)")
     return errors
+
+
+def _hazard_errors(config: dict[str, Any]) -> list[str]:
+    thresholds = config["hazard"]["zoning_thresholds"]
+    if any(high <= low for high, low in zip(thresholds, thresholds[1:])):
+        return [f"config key 'hazard.zoning_thresholds' = {thresholds!r}: must be strictly decreasing "
+                "(extremely high, high, moderate, low)"]
+    return []
 
 
 def validate_config(config: dict[str, Any], schema_path: str | Path = SCHEMA_PATH) -> dict[str, Any]:

@@ -29,5 +29,5 @@ def failing_slope(directory: str | Path, friction_mean_deg: float = 20.0, index:
                            tuple(config["random_field"]["friction_bounds_deg"]), scene.positions)
     settings = copy.deepcopy(config["mpm"])
     settings.update(mpm_overrides)
-    write_case(directory, scene, field, settings)
+    write_case(directory, scene, field.friction_deg, settings)
     return read_case(directory)

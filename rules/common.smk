@@ -1,5 +1,7 @@
 # Helpers shared by the rule files: which realizations exist, and the config slice each rule
 # gets through params (so a config change re-runs only the rules that read the changed keys).
+from types import SimpleNamespace
+
 from rgns.sets import realization_group, realization_ids
 
 SETS = list(config["sets"])
@@ -96,3 +98,82 @@ def chunk_of(wildcards):
     """The chunk directory that holds one realization's trajectory."""
     chunk = int(wildcards.index) // config["mpm"]["chunk_size"]
     return f"results/mpm/{wildcards.set}/chunk_{chunk:03d}"
+
+
+# Test cases, Monte Carlo and hazard: every set other than train/valid is a test case.
+TEST_CASES = [name for name in SETS if name not in ("train", "valid")]
+MC_CASES = list(config["montecarlo"]["cases"])
+
+
+wildcard_constraints:
+    case="|".join(TEST_CASES) or "no-test-case",
+
+
+def mc_chunk_ids(case):
+    """Monte Carlo chunk ids of a case ('000', '001', ...)."""
+    section = config["montecarlo"]
+    return [f"{k:03d}" for k in range(-(-section["realizations"] // section["chunk_size"]))]
+
+
+def mc_chunk_indices(wildcards):
+    """Realization indices of one Monte Carlo chunk."""
+    section = config["montecarlo"]
+    first = int(wildcards.chunk) * section["chunk_size"]
+    return list(range(first, min(first + section["chunk_size"], section["realizations"])))
+
+
+def mc_case_params(wildcards):
+    """What drawing a realization of a case depends on: its set's group, family, domain, mesh, field."""
+    group = config["sets"][wildcards.case][0]
+    params = geometry_params(SimpleNamespace(set=wildcards.case, index="0"))
+    return params | {
+        "case": wildcards.case,
+        "group": {key: group[key] for key in FIELD_KEYS},
+        "random_field": config["random_field"],
+    }
+
+
+def mc_run_params(wildcards):
+    """The simulator settings of the Monte Carlo runs (MPM settings too: GNS rollouts start from MPM frames)."""
+    section = config["montecarlo"]
+    return {
+        "montecarlo": {key: section[key] for key in ("simulator", "batch_size", "duration_s", "device")},
+        "mpm": config["mpm"],
+        "metrics": config["metrics"],
+    }
+
+
+def mc_model(wildcards):
+    """The trained GNS, when it is the Monte Carlo simulator."""
+    return ["results/model/gns.pt"] if config["montecarlo"]["simulator"] == "gns" else []
+
+
+def mc_chunks(wildcards):
+    """Every Monte Carlo chunk table of a case."""
+    return [f"results/mc/{wildcards.case}/chunk_{k}.csv" for k in mc_chunk_ids(wildcards.case)]
+
+
+def case_scenes(wildcards):
+    """The scene files of every realization of a test case."""
+    return [f"results/geometry/{wildcards.case}/{i}.json" for i in set_ids(wildcards.case)]
+
+
+def zoning_params(wildcards):
+    """The zoning thresholds and the cross-section the map is drawn on (the case's mean geometry)."""
+    from rgns.montecarlo import mean_vertices
+
+    family = config["geometry"]["families"][config["sets"][wildcards.case][0]["family"]]
+    hazard = config["hazard"]
+    return {
+        "thresholds": hazard["zoning_thresholds"],
+        "resolution_m": hazard["zoning_resolution_m"],
+        "confidence": hazard["confidence"],
+        "vertices": mean_vertices(family).tolist(),
+        "domain": config["domain"],
+    }
+
+
+def exceedance_params(wildcards):
+    """Confidence, exceedance probabilities and the convergence criterion."""
+    return {key: config["hazard"][key] for key in ("confidence", "exceedance_probabilities",
+                                                    "convergence_tolerance", "convergence_window")}

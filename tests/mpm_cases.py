@@ -28,5 +28,5 @@ def polygon_case(directory: Path, vertices, length_m: float, height_m: float, ce
     grid = FieldGrid.covering(length_m, height_m, cell_size_m)
     field = FrictionField(grid, np.full(grid.shape, friction_deg), np.full(len(positions), friction_deg),
                           friction_deg, 0.0, 1.0, 1.0, "constant", 0.0)
-    write_case(directory, scene, field, settings)
+    write_case(directory, scene, field.friction_deg, settings)
     return read_case(directory)

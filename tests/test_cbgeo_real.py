@@ -29,7 +29,7 @@ def test_a_failing_slope_runs_in_cbgeo_and_the_reader_recovers_materials_and_fri
                         config["mesh"], config["geometry"], config["seed"])
     grid = FieldGrid.covering(config["domain"]["length_m"], config["domain"]["height_m"], config["mesh"]["cell_size_m"])
     field = friction_field(config["seed"], "train", 0, group, grid, "kronecker", (5.0, 60.0), scene.positions)
-    case_dir = write_case(tmp_path / "case", scene, field, config["mpm"])
+    case_dir = write_case(tmp_path / "case", scene, field.friction_deg, config["mpm"])
     options = {"binary": BINARY, "threads": 1, "keep_raw": True, "timeout_s": 600}
     case, raw, seconds = run_cbgeo(case_dir, tmp_path / "scratch", tmp_path / "mpm.log", options, "train 0000")
     print(f"CB-Geo: {len(case.positions)} particles, {case.meta['nsteps']} steps in {seconds:.1f} s")

@@ -34,7 +34,7 @@ def case_dir(tmp_path, default_config):
     grid = FieldGrid.covering(config["domain"]["length_m"], config["domain"]["height_m"], 1.0)
     field = friction_field(config["seed"], "train", 1, config["sets"]["train"][0], grid, "kronecker", (5.0, 60.0),
                            scene.positions)
-    return write_case(tmp_path / "case", scene, field, config["mpm"]), config
+    return write_case(tmp_path / "case", scene, field.friction_deg, config["mpm"]), config
 
 
 def _options(binary, **overrides):

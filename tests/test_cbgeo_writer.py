@@ -28,7 +28,7 @@ def written(tmp_path_factory, default_config):
     grid = FieldGrid.covering(config["domain"]["length_m"], config["domain"]["height_m"], config["mesh"]["cell_size_m"])
     field = friction_field(config["seed"], "train", 2, config["sets"]["train"][0], grid, "kronecker",
                            tuple(config["random_field"]["friction_bounds_deg"]), scene.positions)
-    directory = write_case(tmp_path_factory.mktemp("case") / "case", scene, field, config["mpm"])
+    directory = write_case(tmp_path_factory.mktemp("case") / "case", scene, field.friction_deg, config["mpm"])
     return directory, scene, field, config
 
 

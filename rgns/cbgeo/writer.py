@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from rgns.fields import FrictionField
 from rgns.geometry import Scene
 from rgns.geostatic import geostatic_stresses
 
@@ -180,7 +179,7 @@ def case_json(settings: dict[str, Any], bins: FrictionBins, used_bins: np.ndarra
     }
 
 
-def write_case(directory: str | Path, scene: Scene, field: FrictionField, settings: dict[str, Any]) -> Path:
+def write_case(directory: str | Path, scene: Scene, friction_deg: np.ndarray, settings: dict[str, Any]) -> Path:
     """Write the complete case directory of one realization; returns the directory."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -197,15 +196,15 @@ def write_case(directory: str | Path, scene: Scene, field: FrictionField, settin
         np.savetxt(handle, positions, fmt="%.10g", delimiter="\t")
     np.savetxt(directory / VOLUMES_FILE, np.column_stack([np.arange(len(positions)), scene.volumes]),
                fmt=["%d", "%.10g"], delimiter="\t")
-    np.savetxt(directory / FRICTION_FILE, field.friction_deg, fmt="%.8g")
+    np.savetxt(directory / FRICTION_FILE, friction_deg, fmt="%.8g")
     if settings["geostatic_stress"]:
-        stresses = geostatic_stresses(scene.vertices, positions, field.friction_deg,
+        stresses = geostatic_stresses(scene.vertices, positions, friction_deg,
                                       settings["density_kg_m3"], settings["gravity_m_s2"], settings["k0"])
         with open(directory / STRESSES_FILE, "w") as handle:
             handle.write(f"{len(positions)}\n")
             np.savetxt(handle, stresses, fmt="%.10g", delimiter="\t")
 
-    bins = bin_friction(field.friction_deg, settings["friction_bins"])
+    bins = bin_friction(friction_deg, settings["friction_bins"])
     used = np.unique(bins.particle_bin)
     tolerance = 1e-9 * grid.cell_size_m
     length = scene.domain_length_m  # the top is free: no node set

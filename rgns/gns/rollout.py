@@ -21,6 +21,7 @@ import torch
 
 from rgns.gns.graph import radius_graph
 from rgns.gns.simulator import GraphInput, LearnedSimulator
+from rgns.trajectories import SOIL
 
 
 @dataclass
@@ -119,3 +120,15 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
         stored[b] += [stored[b][-1]] * (frames - len(stored[b]))
         result.positions = np.stack(stored[b])
     return results
+
+
+
+def rollout_soil(simulator: LearnedSimulator, histories: list[np.ndarray], friction_deg: list[np.ndarray],
+                 frames: int, settings: RolloutSettings | None = None, device: str = "cpu") -> list[RolloutResult]:
+    """Roll out soil-only realizations from their first ``history + 1`` frames [H+1, N, 2] (from
+    MPM, as every GNS rollout starts) given each particle's friction angle."""
+    length = simulator.settings.history + 1
+    histories = [np.asarray(h, dtype=np.float32)[:length] for h in histories]
+    types = [np.full(h.shape[1], SOIL, dtype=np.int64) for h in histories]
+    tan_frictions = [np.tan(np.radians(np.asarray(f, dtype=float))).astype(np.float32) for f in friction_deg]
+    return rollout(simulator, histories, types, tan_frictions, frames, settings, device)

@@ -7,6 +7,6 @@ from rgns.logsetup import log_to_file
 log = log_to_file(snakemake.log[0])
 scene = read_scene(snakemake.input.scene)
 field = read_field(snakemake.input.field)
-write_case(snakemake.output[0], scene, field, snakemake.params[0])
+write_case(snakemake.output[0], scene, field.friction_deg, snakemake.params[0])
 log.info("%s %s: case with %d particles written to %s", scene.set_name, snakemake.wildcards.index,
          len(scene.positions), snakemake.output[0])

@@ -1,0 +1,232 @@
+"""Monte Carlo realizations of a test case: draw, simulate (GNS or embedded MPM), measure.
+
+Realization ``i`` of case ``c`` is drawn exactly as realization ``i`` of the set ``c`` in the MPM
+pipeline (same geometry and field streams), so the first realizations of a Monte Carlo run are
+the very realizations the validation compares against MPM. Realizations are simulated in
+batches of ``batch_size`` aligned on the index (batch k holds k·B … k·B + B − 1), so a table does
+not depend on how the realizations are split into chunks (chunk sizes are multiples of B).
+
+A GNS rollout starts, as in training and validation, from ``history + 1`` frames of MPM: the
+embedded engine runs the first 0.125 s (6 frames of 0.025 s, about 1.5 % of a 10 s run), the GNS
+the rest. Started from exact rest (a history of identical positions), the default model moved
+no particle of the case-1 realizations, failing ones included: zero velocities are a fixed point
+it learned from the soil at rest.
+
+The deterministic *mean-field* realization has the mean geometry (the midpoint of every vertex
+range) and a uniform friction angle equal to the field mean; it is the reference the exceedance
+curves mark.
+"""
+from __future__ import annotations
+
+import logging
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from rgns.cbgeo.case import read_case
+from rgns.cbgeo.writer import write_case
+from rgns.fields import FieldGrid, friction_field
+from rgns.geometry import Scene, build_scene, seed_particles
+from rgns.gns.rollout import rollout_soil
+from rgns.gns.simulator import LearnedSimulator
+from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
+from rgns.mpm.solver import EngineSettings, RunResult, run_batch
+
+SIMULATORS = ("gns", "mpm")
+MEAN_FIELD = -1  # the index recorded for the mean-field realization
+log = logging.getLogger(__name__)
+
+
+class MonteCarloError(ValueError):
+    """A Monte Carlo case cannot be set up; the message names the config key."""
+
+
+@dataclass
+class CaseInputs:
+    """What drawing a realization of one case needs (the ``params`` of the Monte Carlo rules)."""
+
+    seed: int
+    case: str
+    family_name: str
+    family: dict[str, Any]
+    group: dict[str, Any]
+    domain: dict[str, float]
+    mesh: dict[str, Any]
+    geometry: dict[str, Any]
+    random_field: dict[str, Any]
+
+    @classmethod
+    def from_params(cls, params: dict[str, Any]) -> "CaseInputs":
+        return cls(**{key: params[key] for key in cls.__dataclass_fields__})
+
+    @property
+    def field_grid(self) -> FieldGrid:
+        spacing = self.random_field["grid_spacing_m"] or self.mesh["cell_size_m"]
+        return FieldGrid.covering(self.domain["length_m"], self.domain["height_m"], spacing)
+
+
+def case_group(sets: dict[str, list[dict[str, Any]]], case: str) -> dict[str, Any]:
+    """The single group of set ``case`` (a Monte Carlo case is one family with one field law)."""
+    if case not in sets:
+        raise MonteCarloError(f"montecarlo.cases: {case!r} is not a set in 'sets' (sets: {sorted(sets)})")
+    groups = sets[case]
+    if len(groups) != 1:
+        raise MonteCarloError(f"montecarlo.cases: set {case!r} has {len(groups)} groups; a Monte Carlo case needs exactly one")
+    return groups[0]
+
+
+@dataclass
+class Realization:
+    """One realization ready to simulate."""
+
+    index: int
+    scene: Scene
+    friction_deg: np.ndarray
+
+
+def draw_realization(inputs: CaseInputs, index: int) -> Realization:
+    """Realization ``index``: its scene and friction field from its own seeds."""
+    scene = build_scene(inputs.case, index, inputs.family_name, inputs.family, inputs.domain, inputs.mesh,
+                        inputs.geometry, inputs.seed)
+    field = friction_field(
+        inputs.seed, inputs.case, index, inputs.group, inputs.field_grid, inputs.random_field["method"],
+        tuple(inputs.random_field["friction_bounds_deg"]), scene.positions)
+    return Realization(index, scene, field.friction_deg)
+
+
+def _midpoint(value: float | list[float]) -> float:
+    return float(np.mean(value)) if isinstance(value, list) else float(value)
+
+
+def mean_vertices(family: dict[str, Any]) -> np.ndarray:
+    """The family's mean polygon [K, 2]: every vertex range at its midpoint."""
+    return np.array([[_midpoint(v["x_m"]), _midpoint(v["y_m"])] for v in family["vertices"]])
+
+
+def mean_field_realization(inputs: CaseInputs) -> Realization:
+    """The deterministic reference: mean geometry, uniform friction at the field mean."""
+    vertices = mean_vertices(inputs.family)
+    positions, volumes = seed_particles(vertices, inputs.mesh["cell_size_m"], inputs.mesh["particles_per_cell"])
+    scene = Scene(inputs.case, MEAN_FIELD, inputs.family_name, vertices, positions, volumes,
+                  float(inputs.domain["length_m"]), float(inputs.domain["height_m"]),
+                  float(inputs.mesh["cell_size_m"]), int(inputs.mesh["particles_per_cell"]), draws=0)
+    mean_deg = _midpoint(inputs.group["friction_mean_deg"])
+    return Realization(MEAN_FIELD, scene, np.full(len(positions), mean_deg))
+
+
+@dataclass
+class Simulated:
+    """A simulator's answer for one realization."""
+
+    positions: np.ndarray  # [T, N, 2]
+    status: str
+
+
+def _run_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int) -> list[RunResult]:
+    """``frames`` frames of the embedded MPM engine, from case directories in a scratch folder."""
+    case_settings = {key: value for key, value in mpm.items() if key not in ("engine", "cbgeo")}
+    with tempfile.TemporaryDirectory(prefix="rgns-mc-") as scratch:
+        cases = [read_case(write_case(Path(scratch) / f"{r.index + 1:05d}", r.scene, r.friction_deg, case_settings))
+                 for r in batch]
+        duration_s = (frames - 1) * mpm["frame_interval_s"]
+        return run_batch(cases, EngineSettings.from_config(mpm["embedded"]), duration_s, mpm["frame_interval_s"])
+
+
+def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int) -> list[Simulated]:
+    """Run a batch through the embedded MPM engine."""
+    return [Simulated(result.positions, result.status) for result in _run_mpm(batch, mpm, frames)]
+
+
+def simulate_gns(simulator: LearnedSimulator, batch: list[Realization], mpm: dict[str, Any], frames: int,
+                 device: str = "cpu") -> list[Simulated]:
+    """MPM for the first ``history + 1`` frames, then the GNS to ``frames``."""
+    warmup = _run_mpm(batch, mpm, simulator.settings.history + 1)
+    results = rollout_soil(simulator, [w.positions for w in warmup], [r.friction_deg for r in batch], frames,
+                           device=device)
+    return [Simulated(result.positions, w.status if w.status != "ok" else result.status)
+            for w, result in zip(warmup, results)]
+
+
+def measure(realization: Realization, simulated: Simulated, metrics: MetricSettings, density_kg_m3: float,
+            frame_interval_s: float, gravity_m_s2: float) -> dict[str, Any]:
+    """One table row: R, V, I, the final normalised energies and the status of a realization."""
+    scene = realization.scene
+    row: dict[str, Any] = {"index": realization.index, "status": simulated.status,
+                           "n_particles": len(scene.positions),
+                           "friction_mean_deg": float(np.mean(realization.friction_deg))}
+    if simulated.status != "ok":
+        return row
+    positions = simulated.positions
+    measured = runout_metrics(positions[0], positions[-1], scene.volumes, crest_x(scene.vertices), metrics)
+    energies = normalized_energies(positions, density_kg_m3 * scene.volumes, frame_interval_s, gravity_m_s2)
+    row |= measured.as_row()
+    row |= dict(zip(("potential_final", "kinetic_final", "dissipated_final"), energies[-1].tolist()))
+    return row
+
+
+COLUMNS = ["index", "status", "n_particles", "friction_mean_deg", "runout_m", "volume_m2", "influence_m",
+           "displaced_fraction", "toe_x_m", "crest_x_m", "front_x_m", "rear_x_m", "potential_final",
+           "kinetic_final", "dissipated_final"]
+
+
+@dataclass
+class RunSettings:
+    """Config section ``montecarlo`` plus what the simulators need from elsewhere."""
+
+    simulator: str
+    batch_size: int
+    frames: int
+    frame_interval_s: float
+    metrics: MetricSettings
+    mpm: dict[str, Any]
+    device: str = "cpu"
+
+    @classmethod
+    def from_params(cls, params: dict[str, Any]) -> "RunSettings":
+        section, mpm = params["montecarlo"], params["mpm"]
+        duration_s = section["duration_s"] or mpm["duration_s"]
+        return cls(simulator=section["simulator"], batch_size=section["batch_size"],
+                   frames=int(round(duration_s / mpm["frame_interval_s"])) + 1,
+                   frame_interval_s=mpm["frame_interval_s"], metrics=MetricSettings(**params["metrics"]),
+                   mpm=mpm, device=section["device"])
+
+
+def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettings,
+                     simulator: LearnedSimulator | None = None) -> pd.DataFrame:
+    """Draw, simulate and measure realizations ``indices`` (MEAN_FIELD for the mean-field one)."""
+    if settings.simulator not in SIMULATORS:
+        raise MonteCarloError(f"montecarlo.simulator = {settings.simulator!r}: expected one of {SIMULATORS}")
+    if settings.simulator == "gns" and simulator is None:
+        raise MonteCarloError("montecarlo.simulator = 'gns' needs a trained model")
+    rows = []
+    started = time.perf_counter()
+    batches = _aligned_batches(indices, settings.batch_size)
+    for number, batch_indices in enumerate(batches, start=1):
+        batch = [mean_field_realization(inputs) if i == MEAN_FIELD else draw_realization(inputs, i)
+                 for i in batch_indices]
+        if settings.simulator == "gns":
+            simulated = simulate_gns(simulator, batch, settings.mpm, settings.frames, settings.device)
+        else:
+            simulated = simulate_mpm(batch, settings.mpm, settings.frames)
+        for realization, result in zip(batch, simulated):
+            rows.append(measure(realization, result, settings.metrics, settings.mpm["density_kg_m3"],
+                                settings.frame_interval_s, settings.mpm["gravity_m_s2"]))
+            if result.status != "ok":
+                log.error("%s realization %d: %s", inputs.case, realization.index, result.status)
+        elapsed = time.perf_counter() - started
+        log.info("%s: batch %d of %d done (%d realizations, %.1f s, about %.0f s left)", inputs.case, number,
+                 len(batches), len(rows), elapsed, elapsed / number * (len(batches) - number))
+    return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def _aligned_batches(indices: list[int], batch_size: int) -> list[list[int]]:
+    """Group indices by ``index // batch_size`` (the mean-field one alone), in order."""
+    groups: dict[int, list[int]] = {}
+    for i in indices:
+        groups.setdefault(i // batch_size if i != MEAN_FIELD else MEAN_FIELD, []).append(i)
+    return list(groups.values())

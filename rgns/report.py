@@ -1,0 +1,114 @@
+"""The hazard report: one self-contained HTML page (figures inlined) with captions and tables.
+
+Captions are the ``docs/captions/*.rst`` files that ``snakemake --report`` also uses, rendered
+with the same Jinja variables (``snakemake.wildcards``), so both reports say the same thing.
+"""
+from __future__ import annotations
+
+import base64
+import html
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import jinja2
+import pandas as pd
+
+CAPTIONS = Path(__file__).resolve().parent.parent / "docs" / "captions"
+STYLE = """
+body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
+h1 { border-bottom: 2px solid #444; } h2 { margin-top: 2em; border-bottom: 1px solid #aaa; }
+figure { margin: 1.5em 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
+figcaption { font-size: 0.9em; color: #444; margin-top: 0.4em; }
+table { border-collapse: collapse; font-size: 0.85em; margin: 1em 0; }
+td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: right; } th { background: #f0f0f0; }
+.note { background: #fff6d6; padding: 0.5em 1em; border-left: 4px solid #e0b000; }
+"""
+
+
+def caption(name: str, **wildcards: str) -> str:
+    """The caption ``docs/captions/<name>.rst`` rendered for ``wildcards``."""
+    text = (CAPTIONS / f"{name}.rst").read_text()
+    return jinja2.Template(text).render(snakemake=SimpleNamespace(wildcards=SimpleNamespace(**wildcards)))
+
+
+def figure(path: str | Path, text: str) -> str:
+    """An inlined PNG with its caption."""
+    data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
+    return (f'<figure><img alt="{html.escape(Path(path).name)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{html.escape(text)}</figcaption></figure>")
+
+
+def table(frame: pd.DataFrame, digits: int = 3) -> str:
+    """An HTML table, floats rounded."""
+    return frame.to_html(index=False, float_format=lambda v: f"{v:.{digits}f}", na_rep="–", border=0)
+
+
+@dataclass
+class Report:
+    """Sections of HTML, in order."""
+
+    title: str
+    sections: list[tuple[str, str]] = field(default_factory=list)
+
+    def add(self, heading: str, *parts: str) -> None:
+        self.sections.append((heading, "\n".join(parts)))
+
+    def html(self) -> str:
+        body = "\n".join(f"<h2>{html.escape(h)}</h2>\n{content}" for h, content in self.sections)
+        return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(self.title)}</title>"
+                f"<style>{STYLE}</style></head><body><h1>{html.escape(self.title)}</h1>\n{body}\n</body></html>\n")
+
+
+def paragraph(text: str, note: bool = False) -> str:
+    return f'<p class="note">{html.escape(text)}</p>' if note else f"<p>{html.escape(text)}</p>"
+
+
+def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
+    """Exceedance, convergence and zoning of one Monte Carlo case."""
+    exceedance = json.loads(files["exceedance.json"].read_text())
+    convergence = json.loads(files["convergence.json"].read_text())
+    zoning = json.loads(files["zoning.json"].read_text())
+    distances = pd.DataFrame([
+        {"metric": metric, "probability": d["probability"],
+         "distance_m": d["distance_m"], "lower_m": d["lower_m"], "upper_m": d["upper_m"], "note": d["note"]}
+        for metric, entry in exceedance["metrics"].items() for d in entry["distances"]])
+    deterministic = ", ".join(f"{metric} {entry['deterministic_m']:.2f} m"
+                              for metric, entry in exceedance["metrics"].items() if entry["deterministic_m"] is not None)
+    summary = (f"{exceedance['n']} realizations used ({exceedance['not_ok']} not ok and left out); "
+               f"deterministic mean-field realization: {deterministic or 'not available'}.")
+    report.add(f"Hazard: {case} — exceedance", paragraph(summary), table(distances, 2),
+               figure(files["exceedance.png"], caption("exceedance", case=case)))
+    converged = ", ".join(
+        f"{metric}: " + (f"converged at n = {entry['converged_at']}" if entry["converged_at"] else
+                         f"not converged within n = {entry['n']}")
+        for metric, entry in convergence["metrics"].items())
+    report.add(f"Hazard: {case} — convergence", paragraph(convergence["criterion"]), paragraph(converged),
+               figure(files["convergence.png"], caption("convergence", case=case)))
+    report.add(f"Hazard: {case} — zoning", table(pd.DataFrame(zoning["zones"]), 2),
+               figure(files["zoning.png"], caption("zoning", case=case)))
+
+
+def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], learning_curve: Path,
+                 evaluation: dict[str, Any], validation_table: pd.DataFrame, validation_summary: list[dict],
+                 validation_figures: dict[str, Path], hazard: dict[str, dict[str, Path]]) -> str:
+    """The whole page."""
+    report = Report(title)
+    report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>")
+    report.add("Scenes", *(figure(path, caption("scenes", set=name)) for name, path in scenes.items()))
+    report.add("Graph network simulator",
+               paragraph(f"{evaluation.get('steps', '?')} training steps; validation one-step position error "
+                         f"{evaluation['one_step_error_m']:.3g} m, full-rollout mean position error "
+                         f"{evaluation['rollout_mean_error_m']:.3g} m over {evaluation['frames']} frames."),
+               figure(learning_curve, caption("learning_curve")))
+    summary = pd.DataFrame(validation_summary)
+    report.add("Validation against MPM", table(validation_table), table(summary),
+               figure(validation_figures["histograms"], caption("histograms")),
+               figure(validation_figures["parity"], caption("parity")),
+               *(figure(path, f"{name}: " + caption("energy")) for name, path in validation_figures.items()
+                 if name not in ("histograms", "parity")))
+    for case, files in hazard.items():
+        hazard_sections(report, case, files)
+    return report.html()

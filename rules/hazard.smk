@@ -1,0 +1,66 @@
+rule exceedance:
+    """Convergence of the running statistics and exceedance curves of I and R for one case."""
+    input:
+        realizations="results/mc/{case}/realizations.csv",
+        mean_field="results/mc/{case}/mean_field.csv",
+    output:
+        curve=report("results/report/{case}/exceedance.png", caption="../docs/captions/exceedance.rst", category="Hazard"),
+        curve_csv="results/report/{case}/exceedance.csv",
+        curve_json="results/report/{case}/exceedance.json",
+        convergence=report("results/report/{case}/convergence.png", caption="../docs/captions/convergence.rst", category="Hazard"),
+        convergence_csv="results/report/{case}/convergence.csv",
+        convergence_json="results/report/{case}/convergence.json",
+    params:
+        exceedance_params,
+    log:
+        "logs/exceedance/{case}.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/exceedance.py"
+
+
+rule zoning:
+    """Five-level hazard zoning along the slope cross-section for one case."""
+    input:
+        realizations="results/mc/{case}/realizations.csv",
+    output:
+        map=report("results/report/{case}/zoning.png", caption="../docs/captions/zoning.rst", category="Hazard"),
+        csv="results/report/{case}/zoning.csv",
+        json="results/report/{case}/zoning.json",
+    params:
+        zoning_params,
+    log:
+        "logs/zoning/{case}.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/zoning.py"
+
+
+rule report:
+    """One self-contained HTML page with every figure, table and caption."""
+    input:
+        scenes=expand("results/plots/{set}/scenes.png", set=SETS),
+        curve="results/model/learning_curve.png",
+        evaluation="results/model/evaluation.json",
+        validation_table="results/report/validation/table.csv",
+        validation_summary="results/report/validation/summary.json",
+        validation_figures=["results/report/validation/histograms.png", "results/report/validation/parity.png"]
+        + expand("results/report/validation/energy_{case}.png", case=TEST_CASES),
+        hazard=expand("results/report/{case}/{name}", case=MC_CASES,
+                      name=["exceedance.png", "exceedance.json", "convergence.png", "convergence.json",
+                            "zoning.png", "zoning.json"]),
+        tables=expand("results/mc/{case}/realizations.csv", case=MC_CASES),
+    output:
+        "results/report/report.html",
+    params:
+        cases=MC_CASES,
+        sets=SETS,
+        config_summary=lambda wildcards: {key: config[key] for key in ("seed", "domain", "mesh", "montecarlo", "hazard", "metrics")},
+    log:
+        "logs/report/report.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/report.py"

@@ -1,0 +1,46 @@
+rule validation_rollout:
+    """Roll the GNS out on every MPM realization of a test case; pair the metrics and energies."""
+    input:
+        packed="results/dataset/{case}.h5",
+        scenes=case_scenes,
+        model="results/model/gns.pt",
+    output:
+        pairs="results/validation/{case}/pairs.csv",
+        energies="results/validation/{case}/energies.npz",
+    params:
+        metrics=config["metrics"],
+        gravity_m_s2=config["mpm"]["gravity_m_s2"],
+        batch_size=config["validation"]["batch_size"],
+        device=config["montecarlo"]["device"],
+    log:
+        "logs/validation_rollout/{case}.log",
+    threads: config["montecarlo"]["threads"]
+    resources:
+        mem_mb=2000,
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/validation_rollout.py"
+
+
+rule validate:
+    """GNS against MPM over all test cases: the Table-3 agreement table, histograms, parity, energies."""
+    input:
+        pairs=expand("results/validation/{case}/pairs.csv", case=TEST_CASES),
+        energies=expand("results/validation/{case}/energies.npz", case=TEST_CASES),
+    output:
+        table="results/report/validation/table.csv",
+        markdown="results/report/validation/table.md",
+        summary="results/report/validation/summary.json",
+        histograms=report("results/report/validation/histograms.png", caption="../docs/captions/histograms.rst", category="Validation"),
+        parity=report("results/report/validation/parity.png", caption="../docs/captions/parity.rst", category="Validation"),
+        energy=report(expand("results/report/validation/energy_{case}.png", case=TEST_CASES), caption="../docs/captions/energy.rst", category="Validation"),
+    params:
+        cases=TEST_CASES,
+        validation=config["validation"],
+    log:
+        "logs/validate/validate.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/validate.py"

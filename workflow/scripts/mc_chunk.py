@@ -1,0 +1,17 @@
+"""Rules mc_chunk and mc_mean_field: simulate and measure some Monte Carlo realizations of a case."""
+import torch
+
+from rgns.gns.train import load_simulator
+from rgns.logsetup import log_to_file
+from rgns.montecarlo import CaseInputs, RunSettings, run_realizations
+from rgns.tables import write_csv
+
+log = log_to_file(snakemake.log[0])
+torch.set_num_threads(snakemake.threads)
+inputs = CaseInputs.from_params(snakemake.params.inputs)
+settings = RunSettings.from_params(snakemake.params.run)
+simulator = load_simulator(snakemake.input.model[0], settings.device).eval() if snakemake.input.model else None
+table = run_realizations(inputs, list(snakemake.params.indices), settings, simulator)
+write_csv(table, snakemake.output[0])
+log.info("%s: %d realizations by %s, %d not ok", inputs.case, len(table), settings.simulator,
+         int((table["status"] != "ok").sum()))

@@ -1,0 +1,8 @@
+"""Rule mc_collect: one table of every Monte Carlo realization of a case, in index order."""
+from rgns.logsetup import log_to_file
+from rgns.tables import concatenate_csv, write_csv
+
+log = log_to_file(snakemake.log[0])
+table = concatenate_csv(snakemake.input, key="index")
+write_csv(table, snakemake.output[0])
+log.info("%d realizations from %d chunks, %d not ok", len(table), len(snakemake.input), int((table["status"] != "ok").sum()))

@@ -1,0 +1,25 @@
+"""Rule report: the HTML page collecting every figure and table of the run."""
+import json
+from pathlib import Path
+
+from rgns.logsetup import log_to_file
+from rgns.report import build_report
+from rgns.tables import read_csv
+
+log = log_to_file(snakemake.log[0])
+inputs, params = snakemake.input, snakemake.params
+validation_figures = {Path(p).stem: Path(p) for p in inputs.validation_figures}
+hazard = {case: {Path(p).name: Path(p) for p in inputs.hazard if Path(p).parent.name == case} for case in params.cases}
+page = build_report(
+    title="rgns landslide runout hazard report",
+    overview=params.config_summary,
+    scenes={name: Path(p) for name, p in zip(params.sets, inputs.scenes)},
+    learning_curve=Path(inputs.curve),
+    evaluation=json.loads(Path(inputs.evaluation).read_text()),
+    validation_table=read_csv(inputs.validation_table),
+    validation_summary=json.loads(Path(inputs.validation_summary).read_text()),
+    validation_figures=validation_figures,
+    hazard=hazard,
+)
+Path(snakemake.output[0]).write_text(page)
+log.info("report of %d Monte Carlo case(s) written (%.1f MB)", len(hazard), len(page) / 1e6)

@@ -1,0 +1,34 @@
+"""Rule validate: agreement of the GNS with MPM over every test case (Table 3, Figs. 8-12)."""
+import json
+from pathlib import Path
+
+import numpy as np
+
+from rgns.logsetup import log_to_file
+from rgns.tables import read_csv, write_csv
+from rgns.validation import best_median_worst, case_agreement, markdown_table, ok_rows, validation_table
+from rgns.validation_plots import plot_energy_evolution, plot_histograms, plot_parity
+
+log = log_to_file(snakemake.log[0])
+settings = snakemake.params.validation
+cases = list(snakemake.params.cases)
+pairs = {case: read_csv(path, ["index", "gns_status", "final_position_mse_m2"])
+         for case, path in zip(cases, snakemake.input.pairs)}
+agreements, summaries = {}, []
+for case in cases:
+    agreements[case], summary = case_agreement(pairs[case], case, settings["bootstrap"], settings["confidence"])
+    summaries.append(summary)
+table = validation_table(agreements)
+write_csv(table, snakemake.output.table)
+Path(snakemake.output.markdown).write_text(markdown_table(table))
+Path(snakemake.output.summary).write_text(json.dumps(summaries, indent=2) + "\n")
+plot_histograms(pairs, snakemake.output.histograms)
+plot_parity(pairs, snakemake.output.parity)
+for case, energies_path, figure in zip(cases, snakemake.input.energies, snakemake.output.energy):
+    candidates = pairs[case]
+    if ok_rows(candidates).empty:
+        log.error("%s: every GNS rollout diverged; the energy figure shows diverged ones", case)
+        candidates = candidates.assign(gns_status="ok")
+    with np.load(energies_path) as energies:
+        plot_energy_evolution(dict(energies), best_median_worst(candidates), case, figure)
+log.info("validation table:\n%s", markdown_table(table))
