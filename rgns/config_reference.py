@@ -18,7 +18,7 @@ def _type(node: dict[str, Any], schema: dict[str, Any]) -> str:
     kind = node.get("type", "")
     if kind == "array" and "items" in node:
         inner = _type(_resolve(node["items"], schema), schema)
-        size = f"{node['minItems']}" if node.get("minItems") == node.get("maxItems") else ""
+        size = f"{node['minItems']}" if "minItems" in node and node.get("minItems") == node.get("maxItems") else ""
         return f"[{inner}]×{size}" if size else f"list of {inner}"
     if "enum" in node:
         return " \\| ".join(f"`{value}`" for value in node["enum"])

@@ -66,3 +66,46 @@ def plot_learning_curve(history_csv: str | Path, path: str | Path) -> None:
     error_axis.set_ylabel("validation rollout position error (m)")
     figure.savefig(path, dpi=110)
     plt.close(figure)
+
+
+def plot_metric_sketch(path: str | Path) -> None:
+    """The README's sketch of R, V and I, measured by rgns.metrics on a constructed slide: the
+    wedge above a 30° plane through the toe slides 6 m down it and spreads along the floor."""
+    from rgns.geometry import seed_particles
+    from rgns.metrics import crest_x, displaced, runout_metrics
+
+    vertices = np.array([[0.0, 0.0], [30.0, 0.0], [20.0, 10.0], [0.0, 10.0]])
+    initial, volumes = seed_particles(vertices, 0.5, 2)
+    angle = np.radians(30.0)
+    wedge = initial[:, 1] > (30.0 - initial[:, 0]) * np.tan(angle)
+    final = initial.copy()
+    depth = (initial[wedge, 1] - (30.0 - initial[wedge, 0]) * np.tan(angle)) / np.cos(angle)
+    final[wedge, 0] = 30.0 + (initial[wedge, 0] - 12.0) * 0.9 + 6.0 * (1.0 - depth / 5.0).clip(0.2)
+    final[wedge, 1] = depth * 0.45
+    crest = crest_x(vertices)
+    metrics = runout_metrics(initial, final, volumes, crest)
+    moved = displaced(initial, final)
+
+    figure, axis = plt.subplots(figsize=(9, 4.2), constrained_layout=True)
+    outline = np.vstack([vertices, vertices[:1]])
+    axis.plot(outline[:, 0], outline[:, 1], color="black", linewidth=1.0, label="initial slope")
+    axis.scatter(*initial[moved].T, s=1.0, color="#e8a33d", label=f"displaced (≥ 1 m): V = {metrics.volume_m2:.1f} m²")
+    axis.scatter(*final[moved].T, s=1.0, color="#8c4f1a", label="deposit (final positions)")
+    axis.scatter(*initial[~moved].T, s=1.0, color="#bbbbbb")
+    y_arrow = -1.2
+    for start, end, text in ((metrics.toe_x_m, metrics.front_x_m, f"R = {metrics.runout_m:.1f} m"),
+                             (metrics.rear_x_m, crest, f"I = {metrics.influence_m:.1f} m")):
+        axis.annotate("", (end, y_arrow), (start, y_arrow), arrowprops={"arrowstyle": "<->"})
+        axis.text((start + end) / 2, y_arrow - 0.9, text, ha="center", va="top")
+    for x, text in ((metrics.toe_x_m, "toe (P99 of\ninitial x)"), (metrics.front_x_m, "front (P99 of\ndisplaced final x)"),
+                    (crest, "crest"), (metrics.rear_x_m, "back scarp")):
+        axis.axvline(x, color="grey", linestyle=":", linewidth=0.8)
+        axis.text(x, 11.2, text, ha="center", va="bottom", fontsize=8)
+    axis.set_xlim(-1, 58)
+    axis.set_ylim(-4.5, 19.5)
+    axis.set_aspect("equal")
+    axis.set_xlabel("x (m)")
+    axis.set_ylabel("y (m)")
+    axis.legend(loc="upper right", fontsize=8, markerscale=6)
+    figure.savefig(path, dpi=130)
+    plt.close(figure)

@@ -39,7 +39,7 @@ def test_realizations_are_numbered_through_the_groups(default_config):
 def _set(config, path, value):
     node = config
     for part in path[:-1]:
-        node = node[part]
+        node = node.setdefault(part, {}) if isinstance(node, dict) else node[part]
     node[path[-1]] = value
 
 
@@ -64,11 +64,20 @@ BAD = [
     (("random_field", "method"), "fft", r"'random_field.method' = 'fft'"),
     (("random_field", "friction_bounds_deg"), [40.0, 10.0], r"'random_field.friction_bounds_deg' = \[40.0, 10.0\]: min 40.0 > max 10.0"),
     (("geometry", "runout_room_m"), 60.0, r"'geometry.families.slope.vertices'.*right wall"),
+    (("montecarlo", "cases"), ["case9"], r"'montecarlo.cases\[0\]' = 'case9': not a test-case set"),
+    (("montecarlo", "cases"), ["train"], r"'montecarlo.cases\[0\]' = 'train': not a test-case set"),
+    (("montecarlo", "simulator"), "fem", r"'montecarlo.simulator' = 'fem'"),
+    (("montecarlo", "realizations"), 1, r"'montecarlo.realizations' = 1"),
+    (("montecarlo", "chunk_size"), 10, r"'montecarlo.chunk_size' = 10: not a multiple of montecarlo.batch_size = 4"),
+    (("hazard", "zoning_thresholds"), [0.9, 0.1, 0.5, 0.01], r"'hazard.zoning_thresholds' = \[0.9, 0.1, 0.5, 0.01\]: must be strictly decreasing"),
+    (("hazard", "zoning_thresholds"), [0.9, 0.5, 0.1], r"'hazard.zoning_thresholds' = \[0.9, 0.5, 0.1\]"),
+    (("metrics", "runout_percentile"), 120.0, r"'metrics.runout_percentile' = 120.0"),
 ]
 
 
 @pytest.mark.parametrize("path, value, message", BAD, ids=[".".join(map(str, b[0])) + "=" + str(b[1]) for b in BAD])
 def test_a_bad_value_fails_with_a_message_naming_key_and_value(raw_default_config, path, value, message):
+    raw_default_config.setdefault("montecarlo", {})["batch_size"] = 4
     _set(raw_default_config, path, value)
     with pytest.raises(ConfigError, match=message):
         validate_config(raw_default_config)
@@ -96,3 +105,10 @@ def test_every_error_is_reported_at_once(raw_default_config):
 
 def test_the_tiny_test_config_is_valid():
     validate_config(load_yaml(REPO / "tests" / "data" / "tiny.yaml"))
+
+
+def test_a_monte_carlo_case_with_two_groups_is_refused_naming_it(raw_default_config):
+    raw_default_config["sets"]["case1"].append(dict(raw_default_config["sets"]["case1"][0]))
+    raw_default_config["montecarlo"] = {"cases": ["case1"]}
+    with pytest.raises(ConfigError, match=r"'montecarlo.cases\[0\]' = 'case1': set 'case1' has 2 groups"):
+        validate_config(raw_default_config)

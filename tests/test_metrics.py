@@ -97,3 +97,10 @@ def test_a_block_that_slides_down_and_stops_has_dissipated_the_height_it_lost():
     positions = np.array([[[0.0, 4.0]], [[1.0, 3.0]], [[2.0, 2.0]], [[2.0, 2.0]]])
     energies = normalized_energies(positions, np.array([1.0]), 1.0, 10.0)
     np.testing.assert_allclose(energies[-1], [0.5, 0.0, 0.5])
+
+
+def test_the_readme_metric_sketch_is_drawn_by_the_metric_code(tmp_path):
+    from rgns.plots import plot_metric_sketch
+
+    plot_metric_sketch(tmp_path / "metrics.png")
+    assert (tmp_path / "metrics.png").stat().st_size > 20_000

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import copy
+import json
+import shutil
 
 import numpy as np
 import pytest
@@ -9,6 +11,7 @@ import pytest
 from rgns.config import load_config, load_yaml
 from rgns.fields import read_field
 from rgns.geometry import read_scene
+from rgns.tables import read_csv
 from rgns.trajectories import read_packed, read_trajectory
 from conftest import REPO, TINY_CONFIG
 from workflow_helpers import scheduled, snakemake, write_config
@@ -21,8 +24,15 @@ def test_dry_run_of_the_default_config_prints_the_dag(tmp_path):
     config = load_config(REPO / "config" / "config.yaml")
     sizes = [sum(group["count"] for group in groups) for groups in config["sets"].values()]
     chunks = sum(-(-size // config["mpm"]["chunk_size"]) for size in sizes)
+    test_cases = len(sizes) - 2
+    montecarlo = config["montecarlo"]
+    mc_cases = len(montecarlo["cases"])
     assert jobs == {"geometry": sum(sizes), "random_field": sum(sizes), "mpm_input": sum(sizes), "mpm_run": chunks,
-                    "pack": len(sizes), "gns_export": 1, "scene_preview": len(sizes), "train": 1, "hazard_map": 1}
+                    "pack": len(sizes), "gns_export": 1, "scene_preview": len(sizes), "train": 1,
+                    "validation_rollout": test_cases, "validate": 1,
+                    "mc_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
+                    "mc_mean_field": mc_cases, "mc_collect": mc_cases, "exceedance": mc_cases, "zoning": mc_cases,
+                    "report": 1, "hazard_map": 1}
 
 
 def test_a_bad_config_stops_before_any_job_runs_naming_key_and_value(tmp_path):
@@ -76,10 +86,10 @@ def test_realizations_run_in_chunks(tmp_path):
     config = load_yaml(TINY_CONFIG)
     config["mpm"]["chunk_size"] = 1
     jobs = scheduled(snakemake(tmp_path, "-n", "dataset", config=write_config(tmp_path / "c.yaml", config)))
-    assert jobs["mpm_run"] == jobs["mpm_input"] == 4
+    assert jobs["mpm_run"] == jobs["mpm_input"] == 5
     config["mpm"]["chunk_size"] = 8
     jobs = scheduled(snakemake(tmp_path, "-n", "dataset", config=write_config(tmp_path / "c.yaml", config)))
-    assert jobs["mpm_run"] == 3 and jobs["mpm_input"] == 4  # one chunk per set
+    assert jobs["mpm_run"] == 3 and jobs["mpm_input"] == 5  # one chunk per set
     assert jobs["pack"] == 3 and jobs["gns_export"] == 1
 
 
@@ -88,7 +98,7 @@ def test_changing_the_field_method_reruns_every_field_but_no_geometry(built, tmp
     changed = copy.deepcopy(config)
     changed["random_field"] = {"method": "cholesky"}
     jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", changed)))
-    assert "geometry" not in jobs and jobs["random_field"] == 4
+    assert "geometry" not in jobs and jobs["random_field"] == 5
 
 
 def test_changing_a_geometry_key_reruns_geometry_and_its_fields(built, tmp_path):
@@ -97,4 +107,63 @@ def test_changing_a_geometry_key_reruns_geometry_and_its_fields(built, tmp_path)
     changed["geometry"]["families"]["column"]["vertices"][1]["x_m"] = 7.0
     changed["geometry"]["families"]["column"]["vertices"][2]["x_m"] = 7.0
     jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", changed)))
-    assert jobs["geometry"] == 1 and jobs["random_field"] == 1  # case1's one column
+    assert jobs["geometry"] == 2 and jobs["random_field"] == 2  # case1's two columns
+
+
+def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
+    workdir, config = built
+    results = workdir / "results"
+    table = read_csv(results / "mc" / "case1" / "realizations.csv")
+    assert list(table["index"]) == list(range(config["montecarlo"]["realizations"]))
+    assert (table["status"] == "ok").all() and (table["n_particles"] == 120).all()
+    # Monte Carlo realization i is realization i of the set: the validation's first ones, rolled out alike
+    pairs = read_csv(results / "validation" / "case1" / "pairs.csv")
+    for _, pair in pairs.iterrows():
+        row = table[table["index"] == pair["index"]].iloc[0]
+        assert row["runout_m"] == pytest.approx(pair["runout_m_gns"], abs=0.1)
+    assert read_csv(results / "mc" / "case1" / "mean_field.csv")["index"].tolist() == [-1]
+    validation = read_csv(results / "report" / "validation" / "table.csv")
+    assert sorted(validation["metric"]) == ["influence", "runout", "volume"] and (validation["n"] == 2).all()
+    exceedance = json.loads((results / "report" / "case1" / "exceedance.json").read_text())
+    assert exceedance["n"] == 6 and set(exceedance["metrics"]) == {"influence distance I", "runout distance R"}
+    zoning = json.loads((results / "report" / "case1" / "zoning.json").read_text())
+    assert zoning["zones"][0]["x_from_m"] == 0.0 and zoning["zones"][-1]["x_to_m"] == config["domain"]["length_m"]
+    page = (results / "report" / "report.html").read_text()
+    for heading in ("Validation against MPM", "Hazard: case1 — exceedance", "Hazard: case1 — zoning"):
+        assert heading in page
+    assert page.count("<img") == 3 + 1 + 3 + 3  # scenes, learning curve, validation, hazard
+
+
+def test_changing_a_zoning_threshold_reruns_only_zoning_and_the_report(built, tmp_path):
+    workdir, config = built
+    changed = copy.deepcopy(config)
+    changed["hazard"] = {"zoning_thresholds": [0.8, 0.5, 0.1, 0.01]}
+    jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", changed)))
+    assert jobs == {"zoning": 1, "report": 1, "hazard_map": 1}
+
+
+def test_deleting_one_monte_carlo_chunk_reruns_only_that_chunk_and_reproduces_it(built):
+    workdir, config = built
+    chunk = workdir / "results" / "mc" / "case1" / "chunk_001.csv"
+    before = chunk.read_bytes()
+    chunk.unlink()
+    jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=workdir / "config.yaml"))
+    assert jobs == {"mc_chunk": 1, "mc_collect": 1, "exceedance": 1, "zoning": 1, "report": 1, "hazard_map": 1}
+    result = snakemake(workdir, "--cores", "2", "hazard_map", config=workdir / "config.yaml")
+    assert result.returncode == 0, result.stderr
+    assert chunk.read_bytes() == before
+
+
+def test_monte_carlo_results_do_not_depend_on_the_chunk_size(built, tmp_path):
+    workdir, config = built
+    copy_dir = tmp_path / "rechunked"
+    shutil.copytree(workdir, copy_dir)
+    changed = copy.deepcopy(config)
+    changed["montecarlo"]["chunk_size"] = 3
+    path = write_config(tmp_path / "c.yaml", changed)
+    assert scheduled(snakemake(copy_dir, "-n", "results/mc/case1/realizations.csv", config=path)) == {
+        "mc_chunk": 2, "mc_collect": 1}
+    result = snakemake(copy_dir, "--cores", "2", "results/mc/case1/realizations.csv", config=path)
+    assert result.returncode == 0, result.stderr
+    table = "results/mc/case1/realizations.csv"
+    assert (copy_dir / table).read_bytes() == (workdir / table).read_bytes()

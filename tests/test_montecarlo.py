@@ -1,0 +1,76 @@
+"""Monte Carlo realizations: drawn like the sets' realizations, batched by index, measured."""
+import numpy as np
+import pytest
+
+from rgns.config import load_config
+from rgns.fields import FieldGrid, friction_field
+from rgns.geometry import build_scene
+from rgns.montecarlo import (MEAN_FIELD, CaseInputs, MonteCarloError, RunSettings, _aligned_batches, case_group,
+                             draw_realization, mean_field_realization, run_realizations)
+from conftest import TINY_CONFIG
+
+FIELD_KEYS = ("friction_mean_deg", "friction_std_deg", "correlation_length_x_m", "correlation_length_y_m")
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    config = load_config(TINY_CONFIG)
+    group = case_group(config["sets"], "case1")
+    inputs = CaseInputs(
+        seed=config["seed"], case="case1", family_name=group["family"],
+        family=config["geometry"]["families"][group["family"]], group={k: group[k] for k in FIELD_KEYS},
+        domain=config["domain"], mesh=config["mesh"],
+        geometry={k: config["geometry"][k] for k in ("runout_room_m", "max_draws")},
+        random_field=config["random_field"])
+    return config, inputs
+
+
+def test_monte_carlo_realization_i_is_realization_i_of_the_set(tiny):
+    config, inputs = tiny
+    for index in (0, 1, 5):
+        realization = draw_realization(inputs, index)
+        scene = build_scene("case1", index, inputs.family_name, inputs.family, config["domain"], config["mesh"],
+                            config["geometry"], config["seed"])
+        grid = FieldGrid.covering(config["domain"]["length_m"], config["domain"]["height_m"], config["mesh"]["cell_size_m"])
+        field = friction_field(config["seed"], "case1", index, config["sets"]["case1"][0], grid,
+                               config["random_field"]["method"], tuple(config["random_field"]["friction_bounds_deg"]),
+                               scene.positions)
+        np.testing.assert_array_equal(realization.scene.positions, scene.positions)
+        np.testing.assert_array_equal(realization.friction_deg, field.friction_deg)
+    assert not np.array_equal(draw_realization(inputs, 0).friction_deg, draw_realization(inputs, 1).friction_deg)
+
+
+def test_the_mean_field_realization_has_uniform_mean_friction_and_the_mean_geometry(tiny):
+    config, inputs = tiny
+    realization = mean_field_realization(inputs)
+    assert realization.index == MEAN_FIELD
+    assert np.all(realization.friction_deg == config["sets"]["case1"][0]["friction_mean_deg"])
+    assert realization.scene.vertices.tolist() == [[0, 0], [6, 0], [6, 5], [0, 5]]
+
+
+@pytest.mark.parametrize("indices, size, batches", [
+    ([0, 1, 2, 3, 4], 2, [[0, 1], [2, 3], [4]]),
+    ([3, 4, 5], 2, [[3], [4, 5]]),  # a chunk starting mid-batch keeps the global alignment
+    ([MEAN_FIELD], 4, [[MEAN_FIELD]]),
+])
+def test_batches_are_aligned_on_the_realization_index(indices, size, batches):
+    assert _aligned_batches(indices, size) == batches
+
+
+def test_the_embedded_mpm_simulator_collapses_the_column_and_measures_it(tiny):
+    config, inputs = tiny
+    params = {"montecarlo": {"simulator": "mpm", "batch_size": 2, "duration_s": 2.0, "device": "cpu"},
+              "mpm": config["mpm"], "metrics": config["metrics"]}
+    table = run_realizations(inputs, [0, 1, MEAN_FIELD], RunSettings.from_params(params))
+    assert list(table["index"]) == [0, 1, MEAN_FIELD] and (table["status"] == "ok").all()
+    assert (table["runout_m"] > 0.5).all() and (table["volume_m2"] > 1.0).all()  # a 5 m column at 30 degrees falls
+    np.testing.assert_allclose(table[["potential_final", "kinetic_final", "dissipated_final"]].sum(axis=1), 1.0)
+    assert (table["potential_final"] < 1.0).all()
+
+
+def test_a_gns_run_without_a_model_is_refused(tiny):
+    config, inputs = tiny
+    params = {"montecarlo": {"simulator": "gns", "batch_size": 1, "duration_s": None, "device": "cpu"},
+              "mpm": config["mpm"], "metrics": config["metrics"]}
+    with pytest.raises(MonteCarloError, match="needs a trained model"):
+        run_realizations(inputs, [0], RunSettings.from_params(params))
