@@ -1,7 +1,9 @@
 """Run the real workflow with snakemake in a scratch directory and read what it scheduled."""
 from __future__ import annotations
 
+import os
 import re
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +19,16 @@ def snakemake(workdir: Path, *args: str, config: Path | None = None, timeout: in
                "--directory", str(workdir), *args]
     if config is not None:
         command += ["--configfile", str(config)]
-    return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+    # its own process group, so a timeout kills the jobs it started too, not only snakemake
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
+    try:
+        stdout, stderr = process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        stdout, stderr = process.communicate()
+        raise AssertionError(f"snakemake {' '.join(args)} timed out after {timeout} s:\n{stdout[-3000:]}\n{stderr[-3000:]}")
+    return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
 
 
 def scheduled(result: subprocess.CompletedProcess) -> dict[str, int]:
