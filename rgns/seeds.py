@@ -9,7 +9,7 @@ import zlib
 
 import numpy as np
 
-STREAMS = ("geometry", "field", "montecarlo")
+STREAMS = ("geometry", "field")  # Monte Carlo realizations reuse these: realization i of a case is drawn once
 
 
 def _name_key(name: str) -> int:
