@@ -19,6 +19,10 @@ from rgns.seeds import realization_rng
 METHODS = ("kronecker", "cholesky")
 
 
+# the keys of a set's group that a realization's field depends on
+FIELD_KEYS = ("friction_mean_deg", "friction_std_deg", "correlation_length_x_m", "correlation_length_y_m")
+
+
 def snx_correlation_1d(coords: np.ndarray, correlation_length_m: float) -> np.ndarray:
     """The 1-D factor exp(−2|Δ|/ℓ) of the SNX correlation between all pairs of ``coords``."""
     return np.exp(-2.0 * np.abs(coords[:, None] - coords[None, :]) / correlation_length_m)

@@ -21,6 +21,10 @@ from rgns.seeds import realization_rng
 WALL_TOLERANCE_M = 1e-9
 
 
+# the keys of config section ``geometry`` (besides the families) that drawing a scene depends on
+DRAW_KEYS = ("runout_room_m", "max_draws")
+
+
 class GeometryError(ValueError):
     """A polygon or scene is invalid; the message names the family, realization or file."""
 

@@ -1,8 +1,5 @@
-"""Monte Carlo realizations of a test case: draw, simulate (GNS or embedded MPM), measure.
-
-Realization ``i`` of case ``c`` is drawn exactly as realization ``i`` of the set ``c`` in the MPM
-pipeline (same geometry and field streams), so the first realizations of a Monte Carlo run are
-the very realizations the validation compares against MPM. Realizations are simulated in
+"""Monte Carlo realizations of a test case: simulate (GNS or embedded MPM) and measure the
+realizations :mod:`rgns.realizations` draws. Realizations are simulated in
 batches of ``batch_size`` aligned on the index (batch k holds k·B … k·B + B − 1), so a table does
 not depend on how the realizations are split into chunks (chunk sizes are multiples of B).
 
@@ -11,10 +8,6 @@ embedded engine runs the first 0.125 s (6 frames of 0.025 s, about 1.5 % of a 10
 the rest. Started from exact rest (a history of identical positions), the default model moved
 no particle of the case-1 realizations, failing ones included: zero velocities are a fixed point
 it learned from the soil at rest.
-
-The deterministic *mean-field* realization has the mean geometry (the midpoint of every vertex
-range) and a uniform friction angle equal to the field mean; it is the reference the exceedance
-curves mark.
 """
 from __future__ import annotations
 
@@ -30,93 +23,18 @@ import pandas as pd
 
 from rgns.cbgeo.case import read_case
 from rgns.cbgeo.writer import write_case
-from rgns.fields import FieldGrid, friction_field
-from rgns.geometry import Scene, build_scene, seed_particles
 from rgns.gns.rollout import rollout_soil
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
 from rgns.mpm.solver import EngineSettings, RunResult, run_batch
+from rgns.realizations import MEAN_FIELD, CaseInputs, Realization, draw_realization, mean_field_realization
 
 SIMULATORS = ("gns", "mpm")
-MEAN_FIELD = -1  # the index recorded for the mean-field realization
 log = logging.getLogger(__name__)
 
 
 class MonteCarloError(ValueError):
     """A Monte Carlo case cannot be set up; the message names the config key."""
-
-
-@dataclass
-class CaseInputs:
-    """What drawing a realization of one case needs (the ``params`` of the Monte Carlo rules)."""
-
-    seed: int
-    case: str
-    family_name: str
-    family: dict[str, Any]
-    group: dict[str, Any]
-    domain: dict[str, float]
-    mesh: dict[str, Any]
-    geometry: dict[str, Any]
-    random_field: dict[str, Any]
-
-    @classmethod
-    def from_params(cls, params: dict[str, Any]) -> "CaseInputs":
-        return cls(**{key: params[key] for key in cls.__dataclass_fields__})
-
-    @property
-    def field_grid(self) -> FieldGrid:
-        spacing = self.random_field["grid_spacing_m"] or self.mesh["cell_size_m"]
-        return FieldGrid.covering(self.domain["length_m"], self.domain["height_m"], spacing)
-
-
-def case_group(sets: dict[str, list[dict[str, Any]]], case: str) -> dict[str, Any]:
-    """The single group of set ``case`` (a Monte Carlo case is one family with one field law)."""
-    if case not in sets:
-        raise MonteCarloError(f"montecarlo.cases: {case!r} is not a set in 'sets' (sets: {sorted(sets)})")
-    groups = sets[case]
-    if len(groups) != 1:
-        raise MonteCarloError(f"montecarlo.cases: set {case!r} has {len(groups)} groups; a Monte Carlo case needs exactly one")
-    return groups[0]
-
-
-@dataclass
-class Realization:
-    """One realization ready to simulate."""
-
-    index: int
-    scene: Scene
-    friction_deg: np.ndarray
-
-
-def draw_realization(inputs: CaseInputs, index: int) -> Realization:
-    """Realization ``index``: its scene and friction field from its own seeds."""
-    scene = build_scene(inputs.case, index, inputs.family_name, inputs.family, inputs.domain, inputs.mesh,
-                        inputs.geometry, inputs.seed)
-    field = friction_field(
-        inputs.seed, inputs.case, index, inputs.group, inputs.field_grid, inputs.random_field["method"],
-        tuple(inputs.random_field["friction_bounds_deg"]), scene.positions)
-    return Realization(index, scene, field.friction_deg)
-
-
-def _midpoint(value: float | list[float]) -> float:
-    return float(np.mean(value)) if isinstance(value, list) else float(value)
-
-
-def mean_vertices(family: dict[str, Any]) -> np.ndarray:
-    """The family's mean polygon [K, 2]: every vertex range at its midpoint."""
-    return np.array([[_midpoint(v["x_m"]), _midpoint(v["y_m"])] for v in family["vertices"]])
-
-
-def mean_field_realization(inputs: CaseInputs) -> Realization:
-    """The deterministic reference: mean geometry, uniform friction at the field mean."""
-    vertices = mean_vertices(inputs.family)
-    positions, volumes = seed_particles(vertices, inputs.mesh["cell_size_m"], inputs.mesh["particles_per_cell"])
-    scene = Scene(inputs.case, MEAN_FIELD, inputs.family_name, vertices, positions, volumes,
-                  float(inputs.domain["length_m"]), float(inputs.domain["height_m"]),
-                  float(inputs.mesh["cell_size_m"]), int(inputs.mesh["particles_per_cell"]), draws=0)
-    mean_deg = _midpoint(inputs.group["friction_mean_deg"])
-    return Realization(MEAN_FIELD, scene, np.full(len(positions), mean_deg))
 
 
 @dataclass

@@ -1,7 +1,10 @@
 # Helpers shared by the rule files: which realizations exist, and the config slice each rule
 # gets through params (so a config change re-runs only the rules that read the changed keys).
-from types import SimpleNamespace
+from dataclasses import asdict
 
+from rgns.fields import FIELD_KEYS
+from rgns.geometry import DRAW_KEYS
+from rgns.realizations import CaseInputs, mean_vertices
 from rgns.sets import realization_group, realization_ids
 
 SETS = list(config["sets"])
@@ -40,11 +43,8 @@ def geometry_params(wildcards):
         "family": geometry["families"][family_name],
         "domain": config["domain"],
         "mesh": config["mesh"],
-        "geometry": {key: geometry[key] for key in ("runout_room_m", "max_draws")},
+        "geometry": {key: geometry[key] for key in DRAW_KEYS},
     }
-
-
-FIELD_KEYS = ("friction_mean_deg", "friction_std_deg", "correlation_length_x_m", "correlation_length_y_m")
 
 
 def field_params(wildcards):
@@ -124,13 +124,7 @@ def mc_chunk_indices(wildcards):
 
 def mc_case_params(wildcards):
     """What drawing a realization of a case depends on: its set's group, family, domain, mesh, field."""
-    group = config["sets"][wildcards.case][0]
-    params = geometry_params(SimpleNamespace(set=wildcards.case, index="0"))
-    return params | {
-        "case": wildcards.case,
-        "group": {key: group[key] for key in FIELD_KEYS},
-        "random_field": config["random_field"],
-    }
+    return asdict(CaseInputs.from_config(config, wildcards.case))
 
 
 def mc_run_params(wildcards):
@@ -160,8 +154,6 @@ def case_scenes(wildcards):
 
 def zoning_params(wildcards):
     """The zoning thresholds and the cross-section the map is drawn on (the case's mean geometry)."""
-    from rgns.montecarlo import mean_vertices
-
     family = config["geometry"]["families"][config["sets"][wildcards.case][0]["family"]]
     hazard = config["hazard"]
     return {

@@ -51,7 +51,6 @@ rule report:
         hazard=expand("results/report/{case}/{name}", case=MC_CASES,
                       name=["exceedance.png", "exceedance.json", "convergence.png", "convergence.json",
                             "zoning.png", "zoning.json"]),
-        tables=expand("results/mc/{case}/realizations.csv", case=MC_CASES),
     output:
         "results/report/report.html",
     params:

@@ -5,24 +5,15 @@ import pytest
 from rgns.config import load_config
 from rgns.fields import FieldGrid, friction_field
 from rgns.geometry import build_scene
-from rgns.montecarlo import (MEAN_FIELD, CaseInputs, MonteCarloError, RunSettings, _aligned_batches, case_group,
-                             draw_realization, mean_field_realization, run_realizations)
+from rgns.montecarlo import MonteCarloError, RunSettings, _aligned_batches, run_realizations
+from rgns.realizations import MEAN_FIELD, CaseInputs, draw_realization, mean_field_realization
 from conftest import TINY_CONFIG
-
-FIELD_KEYS = ("friction_mean_deg", "friction_std_deg", "correlation_length_x_m", "correlation_length_y_m")
 
 
 @pytest.fixture(scope="module")
 def tiny():
     config = load_config(TINY_CONFIG)
-    group = case_group(config["sets"], "case1")
-    inputs = CaseInputs(
-        seed=config["seed"], case="case1", family_name=group["family"],
-        family=config["geometry"]["families"][group["family"]], group={k: group[k] for k in FIELD_KEYS},
-        domain=config["domain"], mesh=config["mesh"],
-        geometry={k: config["geometry"][k] for k in ("runout_room_m", "max_draws")},
-        random_field=config["random_field"])
-    return config, inputs
+    return config, CaseInputs.from_config(config, "case1")
 
 
 def test_monte_carlo_realization_i_is_realization_i_of_the_set(tiny):

@@ -122,7 +122,6 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
     return results
 
 
-
 def rollout_soil(simulator: LearnedSimulator, histories: list[np.ndarray], friction_deg: list[np.ndarray],
                  frames: int, settings: RolloutSettings | None = None, device: str = "cpu") -> list[RolloutResult]:
     """Roll out soil-only realizations from their first ``history + 1`` frames [H+1, N, 2] (from
