@@ -1,7 +1,8 @@
 """From a case's Monte Carlo table to the files of its hazard report: exceedance, convergence,
 zoning (CSV for the curves, JSON for the numbers a reader quotes, PNG for the figures).
 
-Realizations whose status is not "ok" (a diverged rollout) are left out and counted.
+Realizations the screen found stable (status "screened") count as no failure; those whose status
+is neither (a diverged rollout) are left out and counted.
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import pandas as pd
 from rgns.hazard import (ZONE_LEVELS, affected_probability, convergence, exceedance_curve, exceedance_distances,
                          zone_levels, zone_range_labels, zones)
 from rgns.hazard_plots import plot_convergence, plot_exceedance, plot_zoning
+from rgns.realizations import FINISHED
 from rgns.tables import write_csv
 
 # report label -> column of the Monte Carlo table (the paper reports I, then R)
@@ -23,8 +25,8 @@ HAZARD_METRICS = {"influence distance I": "influence_m", "runout distance R": "r
 
 
 def finished(table: pd.DataFrame) -> pd.DataFrame:
-    """The realizations whose simulation finished, in index order."""
-    return table[table["status"] == "ok"].sort_values("index")
+    """The realizations whose simulation finished or that the screen found stable, in index order."""
+    return table[table["status"].isin(FINISHED)].sort_values("index")
 
 
 def _json(path: str | Path, record: dict[str, Any]) -> None:
@@ -44,11 +46,12 @@ def write_exceedance(table: pd.DataFrame, mean_field: pd.DataFrame, settings: di
         distances[label] = exceedance_distances(values, settings["exceedance_probabilities"], confidence)
         traces[label] = convergence(values, settings["convergence_tolerance"], settings["convergence_window"],
                                     confidence)
-        deterministic[label] = float(deterministic_row[column]) if deterministic_row["status"] == "ok" else None
+        deterministic[label] = float(deterministic_row[column]) if deterministic_row["status"] in FINISHED else None
     write_csv(pd.concat([c.to_frame().assign(metric=label) for label, c in curves.items()]), outputs["curve_csv"])
     write_csv(pd.concat([t.to_frame().assign(metric=label) for label, t in traces.items()]), outputs["convergence_csv"])
     exceedance = {
-        "n": len(ok), "not_ok": len(table) - len(ok), "confidence": confidence,
+        "n": len(ok), "not_ok": len(table) - len(ok), "screened": int((table["status"] == "screened").sum()),
+        "confidence": confidence,
         "metrics": {label: {"deterministic_m": deterministic[label],
                             "mean_m": float(ok[column].mean()), "std_m": float(ok[column].std()),
                             "distances": [asdict(d) for d in distances[label]]}

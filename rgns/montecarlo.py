@@ -8,6 +8,12 @@ embedded engine runs the first 0.125 s (6 frames of 0.025 s, about 1.5 % of a 10
 the rest. Started from exact rest (a history of identical positions), the default model moved
 no particle of the case-1 realizations, failing ones included: zero velocities are a fixed point
 it learned from the soil at rest.
+
+What a scene does not need is skipped, each switchable (config ``montecarlo``): a realization
+whose limit-equilibrium factor of safety is clearly above 1 (:mod:`rgns.screening`) is not
+simulated and enters the table as a no-failure run with status "screened"; GNS rollouts skip
+particles at rest and stop once a realization has come to rest (``montecarlo.rollout``); and
+only the frames a measurement reads are kept (``keep_frames: ends``).
 """
 from __future__ import annotations
 
@@ -23,11 +29,12 @@ import pandas as pd
 
 from rgns.cbgeo.case import read_case
 from rgns.cbgeo.writer import write_case
-from rgns.gns.rollout import rollout_soil
+from rgns.gns.rollout import RolloutSettings, rollout_soil
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
 from rgns.mpm.solver import EngineSettings, RunResult, run_batch
-from rgns.realizations import MEAN_FIELD, CaseInputs, Realization, draw_realization, mean_field_realization
+from rgns.realizations import FINISHED, MEAN_FIELD, CaseInputs, Realization, draw_realization, mean_field_realization
+from rgns.screening import ScreenSettings, minimum_factor_of_safety
 
 SIMULATORS = ("gns", "mpm")
 log = logging.getLogger(__name__)
@@ -45,39 +52,56 @@ class Simulated:
     status: str
 
 
-def _run_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int) -> list[RunResult]:
+def _run_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, keep: str = "all") -> list[RunResult]:
     """``frames`` frames of the embedded MPM engine, from case directories in a scratch folder."""
     case_settings = {key: value for key, value in mpm.items() if key not in ("engine", "cbgeo")}
     with tempfile.TemporaryDirectory(prefix="rgns-mc-") as scratch:
         cases = [read_case(write_case(Path(scratch) / f"{r.index + 1:05d}", r.scene, r.friction_deg, case_settings))
                  for r in batch]
         duration_s = (frames - 1) * mpm["frame_interval_s"]
-        return run_batch(cases, EngineSettings.from_config(mpm["embedded"]), duration_s, mpm["frame_interval_s"])
+        return run_batch(cases, EngineSettings.from_config(mpm["embedded"]), duration_s, mpm["frame_interval_s"],
+                         keep=keep)
 
 
-def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int) -> list[Simulated]:
-    """Run a batch through the embedded MPM engine."""
-    return [Simulated(result.positions, result.status) for result in _run_mpm(batch, mpm, frames)]
+def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, keep: str = "all") -> list[Simulated]:
+    """Run a batch through the embedded MPM engine, keeping ``keep`` frames ("all" or "ends")."""
+    return [Simulated(result.positions, result.status) for result in _run_mpm(batch, mpm, frames, keep)]
 
 
 def simulate_gns(simulator: LearnedSimulator, batch: list[Realization], mpm: dict[str, Any], frames: int,
-                 device: str = "cpu") -> list[Simulated]:
+                 device: str = "cpu", rollout: RolloutSettings | None = None) -> list[Simulated]:
     """MPM for the first ``history + 1`` frames, then the GNS to ``frames``."""
     warmup = _run_mpm(batch, mpm, simulator.settings.history + 1)
     results = rollout_soil(simulator, [w.positions for w in warmup], [r.friction_deg for r in batch], frames,
-                           device=device)
+                           rollout, device)
     return [Simulated(result.positions, w.status if w.status != "ok" else result.status)
             for w, result in zip(warmup, results)]
 
 
+def screened(realization: Realization) -> Simulated:
+    """A realization the screen counts as no failure: it stays where it is."""
+    positions = realization.scene.positions.astype(np.float32)
+    return Simulated(np.stack([positions] * 3), "screened")
+
+
+def factor_of_safety(realization: Realization, mpm: dict[str, Any], settings: ScreenSettings) -> float:
+    """Minimum Bishop factor of safety of a realization with the MPM's soil."""
+    scene = realization.scene
+    return minimum_factor_of_safety(scene.vertices, scene.positions, realization.friction_deg, scene.cell_size_m,
+                                    mpm["density_kg_m3"] * mpm["gravity_m_s2"], mpm["cohesion_pa"], settings,
+                                    domain_length_m=scene.domain_length_m).factor_of_safety
+
+
 def measure(realization: Realization, simulated: Simulated, metrics: MetricSettings, density_kg_m3: float,
             frame_interval_s: float, gravity_m_s2: float) -> dict[str, Any]:
-    """One table row: R, V, I, the final normalised energies and the status of a realization."""
+    """One table row: R, V, I, the final normalised energies and the status of a realization.
+
+    ``simulated.positions`` may hold every frame or only the first and the last two."""
     scene = realization.scene
     row: dict[str, Any] = {"index": realization.index, "status": simulated.status,
                            "n_particles": len(scene.positions),
                            "friction_mean_deg": float(np.mean(realization.friction_deg))}
-    if simulated.status != "ok":
+    if simulated.status not in FINISHED:
         return row
     positions = simulated.positions
     measured = runout_metrics(positions[0], positions[-1], scene.volumes, crest_x(scene.vertices), metrics)
@@ -87,8 +111,8 @@ def measure(realization: Realization, simulated: Simulated, metrics: MetricSetti
     return row
 
 
-COLUMNS = ["index", "status", "n_particles", "friction_mean_deg", "runout_m", "volume_m2", "influence_m",
-           "displaced_fraction", "toe_x_m", "crest_x_m", "front_x_m", "rear_x_m", "potential_final",
+COLUMNS = ["index", "status", "n_particles", "friction_mean_deg", "factor_of_safety", "runout_m", "volume_m2",
+           "influence_m", "displaced_fraction", "toe_x_m", "crest_x_m", "front_x_m", "rear_x_m", "potential_final",
            "kinetic_final", "dissipated_final"]
 
 
@@ -103,6 +127,9 @@ class RunSettings:
     metrics: MetricSettings
     mpm: dict[str, Any]
     device: str = "cpu"
+    keep_frames: str = "ends"
+    rollout: RolloutSettings | None = None
+    screen: ScreenSettings | None = None
 
     @classmethod
     def from_params(cls, params: dict[str, Any]) -> "RunSettings":
@@ -111,7 +138,17 @@ class RunSettings:
         return cls(simulator=section["simulator"], batch_size=section["batch_size"],
                    frames=int(round(duration_s / mpm["frame_interval_s"])) + 1,
                    frame_interval_s=mpm["frame_interval_s"], metrics=MetricSettings(**params["metrics"]),
-                   mpm=mpm, device=section["device"])
+                   mpm=mpm, device=section["device"], keep_frames=section["keep_frames"],
+                   rollout=rollout_settings(section["rollout"], section["keep_frames"]),
+                   screen=ScreenSettings(**section["screen"]))
+
+
+def rollout_settings(section: dict[str, Any], keep: str = "all") -> RolloutSettings:
+    """The GNS rollout options of config section ``montecarlo.rollout``."""
+    return RolloutSettings(skip_rest=section["skip_rest"], rest_velocity=section["rest_velocity_m_per_frame"],
+                           context_hops=section["context_hops"], early_stop=section["early_stop"],
+                           early_stop_fraction=section["early_stop_fraction"],
+                           early_stop_frames=section["early_stop_frames"], keep=keep)
 
 
 def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettings,
@@ -124,22 +161,34 @@ def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettin
     rows = []
     started = time.perf_counter()
     batches = _aligned_batches(indices, settings.batch_size)
+    screen = settings.screen or ScreenSettings()
     for number, batch_indices in enumerate(batches, start=1):
         batch = [mean_field_realization(inputs) if i == MEAN_FIELD else draw_realization(inputs, i)
                  for i in batch_indices]
-        if settings.simulator == "gns":
-            simulated = simulate_gns(simulator, batch, settings.mpm, settings.frames, settings.device)
-        else:
-            simulated = simulate_mpm(batch, settings.mpm, settings.frames)
-        for realization, result in zip(batch, simulated):
+        safety = {r.index: factor_of_safety(r, settings.mpm, screen) if screen.enabled else float("nan")
+                  for r in batch}
+        to_run = [r for r in batch if not screen.skips(safety[r.index])]
+        simulated = {r.index: screened(r) for r in batch if screen.skips(safety[r.index])}
+        simulated |= dict(zip([r.index for r in to_run], _simulate(to_run, settings, simulator)))
+        for realization in batch:
+            result = simulated[realization.index]
             rows.append(measure(realization, result, settings.metrics, settings.mpm["density_kg_m3"],
-                                settings.frame_interval_s, settings.mpm["gravity_m_s2"]))
-            if result.status != "ok":
+                                settings.frame_interval_s, settings.mpm["gravity_m_s2"])
+                        | {"factor_of_safety": safety[realization.index]})
+            if result.status not in FINISHED:
                 log.error("%s realization %d: %s", inputs.case, realization.index, result.status)
         elapsed = time.perf_counter() - started
         log.info("%s: batch %d of %d done (%d realizations, %.1f s, about %.0f s left)", inputs.case, number,
                  len(batches), len(rows), elapsed, elapsed / number * (len(batches) - number))
     return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def _simulate(batch: list[Realization], settings: RunSettings, simulator: LearnedSimulator | None) -> list[Simulated]:
+    if not batch:
+        return []
+    if settings.simulator == "gns":
+        return simulate_gns(simulator, batch, settings.mpm, settings.frames, settings.device, settings.rollout)
+    return simulate_mpm(batch, settings.mpm, settings.frames, settings.keep_frames)
 
 
 def _aligned_batches(indices: list[int], batch_size: int) -> list[list[int]]:

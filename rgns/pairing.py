@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from rgns.geometry import Scene
-from rgns.gns.rollout import rollout_soil
+from rgns.gns.rollout import RolloutSettings, rollout_soil
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
 from rgns.trajectories import Trajectory
@@ -43,14 +43,15 @@ def _metric_columns(trajectory: Trajectory, positions: np.ndarray, crest: float,
 
 
 def pair_case(simulator: LearnedSimulator, trajectories: list[Trajectory], scenes: dict[int, Scene],
-              settings: MetricSettings, gravity_m_s2: float, batch_size: int = 1, device: str = "cpu") -> PairedCase:
+              settings: MetricSettings, gravity_m_s2: float, batch_size: int = 1, device: str = "cpu",
+              rollout: RolloutSettings | None = None) -> PairedCase:
     """Roll the GNS out on every MPM trajectory of a case and pair the metrics."""
     rows, mpm_energies, gns_energies = [], [], []
     started = time.perf_counter()
     for first in range(0, len(trajectories), batch_size):
         batch = trajectories[first:first + batch_size]
         results = rollout_soil(simulator, [t.positions for t in batch], [t.friction_deg for t in batch],
-                               batch[0].n_frames, device=device)
+                               batch[0].n_frames, rollout, device)
         for trajectory, result in zip(batch, results):
             crest = crest_x(scenes[trajectory.index].vertices)
             truth, predicted = trajectory.positions, result.positions

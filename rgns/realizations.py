@@ -19,6 +19,7 @@ from rgns.fields import FIELD_KEYS, FieldGrid, friction_field
 from rgns.geometry import DRAW_KEYS, Scene, build_scene, seed_particles
 
 MEAN_FIELD = -1  # the index recorded for the mean-field realization
+FINISHED = ("ok", "screened")  # statuses of rows with metrics (screened: found stable, counted as no failure)
 
 
 @dataclass

@@ -77,7 +77,9 @@ def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
         for metric, entry in exceedance["metrics"].items() for d in entry["distances"]])
     deterministic = ", ".join(f"{metric} {entry['deterministic_m']:.2f} m"
                               for metric, entry in exceedance["metrics"].items() if entry["deterministic_m"] is not None)
-    summary = (f"{exceedance['n']} realizations used ({exceedance['not_ok']} not ok and left out); "
+    screened = exceedance.get("screened", 0)
+    stable = f"{screened} found stable by the limit-equilibrium screen and counted as no failure; " if screened else ""
+    summary = (f"{exceedance['n']} realizations used ({stable}{exceedance['not_ok']} not ok and left out); "
                f"deterministic mean-field realization: {deterministic or 'not available'}.")
     report.add(f"Hazard: {case} — exceedance", paragraph(summary), table(distances, 2),
                figure(files["exceedance.png"], caption("exceedance", case=case)))

@@ -131,7 +131,8 @@ def mc_run_params(wildcards):
     """The simulator settings of the Monte Carlo runs (MPM settings too: GNS rollouts start from MPM frames)."""
     section = config["montecarlo"]
     return {
-        "montecarlo": {key: section[key] for key in ("simulator", "batch_size", "duration_s", "device")},
+        "montecarlo": {key: section[key] for key in ("simulator", "batch_size", "duration_s", "device", "keep_frames",
+                                                     "rollout", "screen")},
         "mpm": config["mpm"],
         "metrics": config["metrics"],
     }

@@ -12,6 +12,7 @@ rule validation_rollout:
         gravity_m_s2=config["mpm"]["gravity_m_s2"],
         batch_size=config["validation"]["batch_size"],
         device=config["montecarlo"]["device"],
+        rollout=config["montecarlo"]["rollout"],
     log:
         "logs/validation_rollout/{case}.log",
     threads: config["montecarlo"]["threads"]

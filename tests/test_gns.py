@@ -308,3 +308,26 @@ def test_pushforward_trains_on_the_model_s_own_prediction(tiny_dataset, tmp_path
     settings = TrainSettings(steps=30, batch_graphs=2, pushforward_steps=1, log_every=10, validate_every=10_000,
                              checkpoint_every=30, validation_rollout_frames=5)
     assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 30
+
+
+def test_keeping_only_the_ends_returns_exactly_those_frames_of_the_full_rollout(tiny_dataset):
+    torch.manual_seed(5)
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
+    sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
+    starts = [sampler.frames_of(k, 0, SMALL.history + 1) for k in range(3)]
+    starts[1][:] = starts[1][0]  # at rest: stops early under early stop
+    starts[2][-1] += np.array([50.0, 0.0])  # leaves the domain at once: diverged
+    types = [t.numpy() for t in sampler.particle_type]
+    friction = [f.numpy() for f in sampler.tan_friction]
+    frames = SMALL.history + 15
+    for early_stop in (False, True):
+        settings = RolloutSettings(skip_rest=True, early_stop=early_stop, early_stop_frames=3)
+        full = rollout(simulator, starts, types, friction, frames, settings)
+        ends = rollout(simulator, starts, types, friction, frames, replace(settings, keep="ends"))
+        for a, b in zip(full, ends):
+            assert (a.status, a.stopped_at_frame) == (b.status, b.stopped_at_frame)
+            np.testing.assert_array_equal(b.frame, [0, frames - 2, frames - 1])
+            np.testing.assert_array_equal(b.positions, a.positions[[0, frames - 2, frames - 1]])
+        assert ends[2].status.startswith("diverged") and (ends[1].stopped_at_frame is not None) == early_stop
+    with pytest.raises(ValueError, match="keep = 'some'"):
+        RolloutSettings(keep="some")

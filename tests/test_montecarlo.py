@@ -1,4 +1,6 @@
 """Monte Carlo realizations: drawn like the sets' realizations, batched by index, measured."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -50,7 +52,7 @@ def test_batches_are_aligned_on_the_realization_index(indices, size, batches):
 
 def test_the_embedded_mpm_simulator_collapses_the_column_and_measures_it(tiny):
     config, inputs = tiny
-    params = {"montecarlo": {"simulator": "mpm", "batch_size": 2, "duration_s": 2.0, "device": "cpu"},
+    params = {"montecarlo": config["montecarlo"] | {"simulator": "mpm", "batch_size": 2, "duration_s": 2.0},
               "mpm": config["mpm"], "metrics": config["metrics"]}
     table = run_realizations(inputs, [0, 1, MEAN_FIELD], RunSettings.from_params(params))
     assert list(table["index"]) == [0, 1, MEAN_FIELD] and (table["status"] == "ok").all()
@@ -61,7 +63,36 @@ def test_the_embedded_mpm_simulator_collapses_the_column_and_measures_it(tiny):
 
 def test_a_gns_run_without_a_model_is_refused(tiny):
     config, inputs = tiny
-    params = {"montecarlo": {"simulator": "gns", "batch_size": 1, "duration_s": None, "device": "cpu"},
+    params = {"montecarlo": config["montecarlo"] | {"simulator": "gns"},
               "mpm": config["mpm"], "metrics": config["metrics"]}
     with pytest.raises(MonteCarloError, match="needs a trained model"):
         run_realizations(inputs, [0], RunSettings.from_params(params))
+
+
+def test_frames_kept_do_not_change_the_table(tiny):
+    config, inputs = tiny
+    tables = {}
+    for keep in ("ends", "all"):
+        params = {"montecarlo": config["montecarlo"] | {"simulator": "mpm", "duration_s": 1.0, "keep_frames": keep},
+                  "mpm": config["mpm"], "metrics": config["metrics"]}
+        tables[keep] = run_realizations(inputs, [0], RunSettings.from_params(params))
+    assert tables["ends"].equals(tables["all"])
+
+
+def test_the_screen_counts_a_clearly_stable_realization_as_no_failure_and_simulates_the_others(tiny):
+    config, _ = tiny
+    gentle = {"vertices": [{"x_m": 0.0, "y_m": 0.0}, {"x_m": 20.0, "y_m": 0.0}, {"x_m": 10.0, "y_m": 5.0},
+                           {"x_m": 0.0, "y_m": 5.0}]}  # a 26.6-degree face
+    stable = replace(CaseInputs.from_config(config, "case1"), family=gentle,
+                     group=config["sets"]["case1"][0] | {"friction_mean_deg": 50.0, "friction_std_deg": 2.0})
+    steep = CaseInputs.from_config(config, "case1")  # the vertical column: FS far below 1
+    screen = {"enabled": True, "threshold": 1.2}
+    params = {"montecarlo": config["montecarlo"] | {"simulator": "mpm", "duration_s": 1.0, "screen": screen},
+              "mpm": config["mpm"], "metrics": config["metrics"]}
+    table = run_realizations(stable, [0, 1], RunSettings.from_params(params))
+    assert (table["status"] == "screened").all() and (table["factor_of_safety"] > 2.0).all()
+    assert (table[["runout_m", "volume_m2", "influence_m", "displaced_fraction"]] == 0).all().all()
+    assert table["front_x_m"].isna().all() and (table["potential_final"] == 1.0).all()
+    table = run_realizations(steep, [0], RunSettings.from_params(params))
+    assert table["status"].tolist() == ["ok"] and table["factor_of_safety"].iloc[0] < 0.5
+    assert table["runout_m"].iloc[0] > 0.5

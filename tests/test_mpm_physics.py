@@ -158,3 +158,41 @@ def test_no_nan_and_no_energy_gain_across_stiffness_friction_and_slope_angle(tmp
         assert total.max() <= 1.01 * total[0], (case.directory, total.max() / total[0])
         assert case.volumes.sum() * case.density_kg_m3[0] == pytest.approx(
             sum(case.volumes * case.density_kg_m3), rel=1e-12)
+
+
+@pytest.mark.parametrize("cell_size_m", [0.5, 1.0, 2.0])
+def test_no_nan_and_no_energy_gain_across_cell_size_and_time_step_up_to_the_cfl_limit(tmp_path, cell_size_m):
+    """A 60-degree slope four cells high at cfl 0.1 ... 1.0 (dt up to the CFL limit): each run finishes
+    without a non-finite state or an energy gain above 1 %, or is flagged diverged with its reason."""
+    height = max(4.0, 4 * cell_size_m)
+    toe = 4.0 + height / np.tan(np.radians(60.0))
+    cfls = (0.1, 0.2, 0.5, 1.0)
+    cases = [polygon_case(tmp_path / f"{cfl}", [[0, 0], [toe, 0], [4.0, height], [0, height]], 32.0, height + 2.0,
+                          cell_size_m=cell_size_m, friction_deg=25.0) for cfl in cfls]
+    outcomes = {}
+    for cfl, case in zip(cfls, cases):
+        result = run_batch([case], EngineSettings(early_stop=False, cfl=cfl), duration_s=5.0)[0]
+        outcomes[cfl] = result.status
+        if result.status == "ok":
+            assert np.isfinite(result.positions).all()
+            total = result.energies.sum(axis=1)
+            assert total.max() <= 1.01 * total[0], (cfl, total.max() / total[0])
+            assert result.positions[-1, :, 0].max() > toe + 1.0  # it failed and ran out
+        else:
+            assert result.status.startswith("diverged: ") and " by t = " in result.status, result.status
+    print(f"cell {cell_size_m} m: {outcomes}")
+    assert outcomes[0.1] == outcomes[0.2] == "ok"
+
+
+def test_keeping_only_the_ends_returns_exactly_those_frames_of_a_full_run(tmp_path):
+    cases = [polygon_case(tmp_path / f"{phi}", [[0, 0], [8, 0], [4, 3], [0, 3]], 16.0, 4.0, cell_size_m=1.0,
+                          friction_deg=phi, index=k) for k, phi in enumerate((20.0, 45.0))]
+    settings = EngineSettings(early_stop=True, early_stop_duration_s=0.25)
+    full = run_batch(cases, settings, duration_s=3.0, frame_interval_s=0.05)
+    ends = run_batch(cases, settings, duration_s=3.0, frame_interval_s=0.05, keep="ends")
+    assert full[1].stopped_at_s is not None  # the 37-degree face stands at 45 degrees of friction and stops early
+    for a, b in zip(full, ends):
+        assert (a.status, a.stopped_at_s) == (b.status, b.stopped_at_s)
+        np.testing.assert_array_equal(b.positions, a.positions[[0, -2, -1]])
+        np.testing.assert_array_equal(b.time_s, a.time_s[[0, -2, -1]])
+        np.testing.assert_array_equal(b.energies, a.energies)

@@ -5,9 +5,14 @@ Options, each switchable so their effect on error can be measured:
 * ``skip_rest``: a particle that has not moved more than ``rest_velocity`` per frame over its
   whole history, and whose neighbours are all at rest too, keeps its position; the network runs
   only on the moving particles and their neighbours.
+  ``context_hops`` rings of neighbours around them are evaluated too, so the updated particles see
+  a graph close to the full one (the network's receptive field is one ring per message-passing step).
 * ``early_stop``: a realization whose mean squared particle velocity stays below
   ``early_stop_fraction`` of its peak for ``early_stop_frames`` frames stops; its later frames
   repeat its last state.
+* ``keep``: ``"all"`` frames, or only the ``"ends"`` a Monte Carlo measurement needs (the first
+  and the last two, for R, V, I and the final kinetic energy), which spares copying every frame
+  off the device and holding [T, N, 2] per realization.
 
 A realization with a non-finite position or a particle more than ``domain_margin_m`` outside the
 domain is flagged ``diverged`` and stopped; the others go on.
@@ -28,15 +33,30 @@ from rgns.trajectories import SOIL
 class RolloutSettings:
     skip_rest: bool = False
     rest_velocity: float = 1e-4  # m per frame
+    context_hops: int = 1
     early_stop: bool = False
     early_stop_fraction: float = 0.01
     early_stop_frames: int = 20
     domain_margin_m: float = 5.0
+    keep: str = "all"
+
+    def __post_init__(self) -> None:
+        if self.keep not in KEEP_MODES:
+            raise ValueError(f"rollout keep = {self.keep!r}: expected one of {KEEP_MODES}")
+
+
+KEEP_MODES = ("all", "ends")
+
+
+def kept_frames(keep: str, frames: int) -> np.ndarray:
+    """The frame numbers a rollout of ``frames`` frames returns under ``keep``."""
+    return np.arange(frames) if keep == "all" else np.array([0, frames - 2, frames - 1])
 
 
 @dataclass
 class RolloutResult:
-    positions: np.ndarray  # [T, N, 2], the given history first
+    positions: np.ndarray  # [len(frame), N, 2], the given history first when keep is "all"
+    frame: np.ndarray | None = None  # the frame number of each stored position
     status: str = "ok"
     stopped_at_frame: int | None = None
     node_updates: int = 0  # particles the network was evaluated on, summed over frames
@@ -64,7 +84,9 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
     friction = torch.cat([torch.as_tensor(f, dtype=torch.float32) for f in tan_frictions]).to(device)
     batch = torch.cat([torch.full((n,), b, dtype=torch.long) for b, n in enumerate(counts)]).to(device)
     n_graphs = len(histories)
-    stored = [list(h.astype(np.float32)) for h in histories]
+    keep_all = settings.keep == "all"
+    stored = [list(h.astype(np.float32)) if keep_all else [h[0].astype(np.float32)] for h in histories]
+    ends = [[h[-2].astype(np.float32), h[-1].astype(np.float32)] for h in histories]  # last two frames (keep "ends")
     results = [RolloutResult(np.empty(0)) for _ in histories]
     live = torch.ones(n_graphs, dtype=torch.bool, device=device)
     peak = torch.zeros(n_graphs, device=device)
@@ -84,7 +106,8 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
                 if len(senders) else torch.zeros_like(restless)
             update = active & (restless | near_restless.bool())
         involved = update.clone()
-        involved[senders[update[receivers]]] = True  # the neighbours of updated particles give context
+        for _ in range(settings.context_hops):  # neighbours of updated particles give context
+            involved[senders[involved[receivers]]] = True
         sub_senders, sub_receivers, ids = _subgraph(senders, receivers, involved)
         graph = GraphInput(history[ids], types[ids], friction[ids], batch[ids], n_graphs)
         new = history[:, -1].clone()
@@ -100,25 +123,36 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
             counts, device=device, dtype=torch.float32)
         outside = ~torch.isfinite(new).all(1) | (new < bounds[:, 0] - margin).any(1) | (new > bounds[:, 1] + margin).any(1)
         bad = torch.zeros(n_graphs, dtype=torch.long, device=device).index_add_(0, batch, outside.long()) > 0
-        positions = new.cpu().numpy()
-        split = np.split(positions, np.cumsum(counts)[:-1])
         peak = torch.maximum(peak, mean_v2)
         quiet = torch.where(mean_v2 <= settings.early_stop_fraction * peak, quiet + 1, torch.zeros_like(quiet))
-        for b in torch.nonzero(live).squeeze(1).tolist():
+        stopping = live & bad
+        if settings.early_stop:
+            stopping |= live & (quiet >= settings.early_stop_frames)
+        if keep_all or bool(stopping.any()) or frame == frames - 1:
+            last_two = np.split(history[:, -2:].transpose(0, 1).cpu().numpy(), np.cumsum(counts)[:-1], axis=1)
+            for b in torch.nonzero(live).squeeze(1).tolist():
+                kept = last_two[b][:1] if bad[b] else last_two[b]  # a diverged step is not kept
+                if keep_all:
+                    stored[b].append(kept[-1])
+                elif stopping[b] or frame == frames - 1:
+                    ends[b] = [kept[0], kept[-1]]
+        for b in torch.nonzero(stopping).squeeze(1).tolist():
             if bad[b]:
                 results[b].status = f"diverged: a particle left the domain or became non-finite at frame {frame}"
-                stored[b].append(stored[b][-1])
-                live[b] = False
-                continue
-            stored[b].append(split[b])
-            if settings.early_stop and quiet[b] >= settings.early_stop_frames:
+            else:
                 results[b].stopped_at_frame = frame
-                live[b] = False
+        live &= ~stopping
         if not live.any():
             break
     for b, result in enumerate(results):
-        stored[b] += [stored[b][-1]] * (frames - len(stored[b]))
+        if keep_all:
+            stored[b] += [stored[b][-1]] * (frames - len(stored[b]))
+        else:
+            stopped_early = result.stopped_at_frame is not None and result.stopped_at_frame < frames - 1
+            last = ends[b][-1]
+            stored[b] += [last, last] if stopped_early or result.status != "ok" else ends[b]
         result.positions = np.stack(stored[b])
+        result.frame = kept_frames(settings.keep, frames)
     return results
 
 

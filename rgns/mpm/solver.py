@@ -1,12 +1,15 @@
 """Run a batch of case directories that share a grid: time stepping, frames, early stop, divergence.
 
 The time step follows the CFL condition dt = cfl · h / (c_p + |v|max), capped at ``dt_max_s`` and
-shrunk so a whole number of steps fills each frame interval. A realization stops early once its
-kinetic energy has stayed below ``early_stop_fraction`` of its peak for ``early_stop_duration_s``;
+shrunk so a whole number of steps fills each frame interval. A realization stops early once, at
+every frame for ``early_stop_duration_s``, none of its particles has moved more than
+``early_stop_displacement_m`` over the preceding ``early_stop_duration_s`` (net displacement:
+particle kinetic energy is no test, FLIP noise keeps it up and even growing in a deposit at rest);
 one that produces a non-finite state, loses a particle off the grid, or gains more than
 ``energy_growth_limit`` of its initial total energy is flagged as diverged. Either way it leaves
 the batch (the tensors are compacted) and its remaining frames repeat its last state, so every
-trajectory keeps the same length and the others go on.
+trajectory keeps the same length and the others go on. With ``keep="ends"`` only the first
+and the last two frames are kept (what a Monte Carlo measurement reads); energies stay per frame.
 """
 from __future__ import annotations
 
@@ -36,7 +39,7 @@ class EngineSettings:
     dt_max_s: float = 2.5e-3
     pic_blend: float = 0.0
     early_stop: bool = True
-    early_stop_fraction: float = 0.01
+    early_stop_displacement_m: float = 0.01
     early_stop_duration_s: float = 0.5
     energy_growth_limit: float = 0.05
     friction_source: str = "exact"
@@ -52,8 +55,8 @@ class EngineSettings:
 class RunResult:
     """One realization's frames and what happened to it."""
 
-    positions: np.ndarray  # [T, N, 2]
-    time_s: np.ndarray  # [T]
+    positions: np.ndarray  # [T, N, 2] (keep "all") or [3, N, 2] (keep "ends")
+    time_s: np.ndarray  # [T] or [3], the time of each stored frame
     energies: np.ndarray  # [T, 3]: kinetic, potential, elastic (J per metre width)
     status: str = "ok"  # "ok" or "diverged: <reason>"
     stopped_at_s: float | None = None
@@ -160,12 +163,15 @@ def energies(particles: Particles, gravity: float, batches: int) -> torch.Tensor
 
 def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | None = None,
               frame_interval_s: float | None = None,
-              initial_velocity: list[np.ndarray] | None = None) -> list[RunResult]:
+              initial_velocity: list[np.ndarray] | None = None, keep: str = "all") -> list[RunResult]:
     """Simulate every case (same grid and constraints) to ``duration_s``; one result per case.
 
     ``duration_s`` and ``frame_interval_s`` default to the case's; ``initial_velocity`` gives
-    each case's particles a starting velocity [N, 2] (they start at rest otherwise).
+    each case's particles a starting velocity [N, 2] (they start at rest otherwise); ``keep`` is
+    "all" frames or the "ends" (first and last two).
     """
+    if keep not in ("all", "ends"):
+        raise ValueError(f"keep = {keep!r}: expected 'all' or 'ends'")
     start_wall = time.perf_counter()
     device = torch.device(settings.device)
     grid = grid_of(cases[0])
@@ -191,13 +197,15 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     counts = [len(case.positions) for case in cases]
     live = list(range(len(cases)))  # case index of each batch slot
     frames = [[case.positions.astype(np.float32)] for case in cases]
+    reached = [1] * len(cases)  # frames simulated per case
     history = [[] for _ in cases]
     results: list[RunResult | None] = [None] * len(cases)
     last_stress: list[np.ndarray | None] = [None] * len(cases)
     initial = energies(particles, g, len(cases))
     for b in range(len(cases)):
         history[b].append(initial[b].cpu().numpy())
-    peak = torch.zeros(len(cases), dtype=dtype, device=device)
+    window = max(1, int(round(settings.early_stop_duration_s / frame_interval_s)))
+    recent = [[case.positions.astype(np.float32)] for case in cases]  # the last window + 1 frames
     quiet = np.zeros(len(cases))
     initial_total = initial.sum(1)
     wave_speed = torch.sqrt(particles.material.p_wave_modulus * particles.volume / particles.mass).max().item()
@@ -225,10 +233,13 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
         split = np.split(positions, np.cumsum(live_counts)[:-1])
         stress_split = np.split(torch.stack([particles.sxx, particles.syy, particles.szz, particles.txy], 1).cpu().numpy(),
                                 np.cumsum(live_counts)[:-1])
-        keep = torch.ones(len(live), dtype=torch.bool, device=device)
+        going_on = torch.ones(len(live), dtype=torch.bool, device=device)
         energy_np = energy.cpu().numpy()
         for slot, case_index in enumerate(live):
             frames[case_index].append(split[slot])
+            if keep == "ends" and len(frames[case_index]) > 3:
+                del frames[case_index][1]
+            reached[case_index] = frame + 1
             history[case_index].append(energy_np[slot])
             reason = None
             if finite[slot] > 0 or not np.isfinite(energy_np[slot]).all():
@@ -241,19 +252,20 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
             if reason:
                 frames[case_index][-1] = frames[case_index][-2]
                 results[case_index] = RunResult(np.empty(0), np.empty(0), np.empty(0), status=f"diverged: {reason}")
-                keep[slot] = False
+                going_on[slot] = False
                 continue
-            kinetic = energy[slot, 0]
-            peak[case_index] = torch.maximum(peak[case_index], kinetic)
-            quiet[case_index] = quiet[case_index] + frame_interval_s if kinetic < settings.early_stop_fraction * peak[case_index] else 0.0
+            recent[case_index] = (recent[case_index] + [split[slot]])[-(window + 1):]
+            moved = np.sqrt(((split[slot] - recent[case_index][0]) ** 2).sum(1).max())
+            at_rest = len(recent[case_index]) > window and moved < settings.early_stop_displacement_m
+            quiet[case_index] = quiet[case_index] + frame_interval_s if at_rest else 0.0
             last_stress[case_index] = stress_split[slot]
             if settings.early_stop and quiet[case_index] >= settings.early_stop_duration_s - 1e-9:
                 results[case_index] = RunResult(np.empty(0), np.empty(0), np.empty(0), stopped_at_s=now)
-                keep[slot] = False
-        if not keep.all():
-            new_batch = torch.cumsum(keep.long(), 0) - 1
-            particles = particles.subset(keep[particles.batch], new_batch)
-            live = [c for slot, c in enumerate(live) if keep[slot]]
+                going_on[slot] = False
+        if not going_on.all():
+            new_batch = torch.cumsum(going_on.long(), 0) - 1
+            particles = particles.subset(going_on[particles.batch], new_batch)
+            live = [c for slot, c in enumerate(live) if going_on[slot]]
         if frame % 40 == 0 or not live:
             log.info("t = %.2f s: %d of %d realizations running, dt = %.2e s (%d steps so far)",
                      now, len(live), len(cases), dt, steps)
@@ -265,9 +277,14 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     for case_index in range(len(cases)):
         result = results[case_index] or RunResult(np.empty(0), np.empty(0), np.empty(0))
         stored, energy_rows = frames[case_index], history[case_index]
-        stored += [stored[-1]] * (n_frames - len(stored))
         energy_rows += [energy_rows[-1]] * (n_frames - len(energy_rows))
-        result.positions, result.time_s, result.energies = np.stack(stored), time_s, np.stack(energy_rows)
+        if keep == "all":
+            stored += [stored[-1]] * (n_frames - len(stored))
+            kept_time = time_s
+        else:
+            stored = stored if reached[case_index] == n_frames else [stored[0], stored[-1], stored[-1]]
+            kept_time = time_s[[0, n_frames - 2, n_frames - 1]]
+        result.positions, result.time_s, result.energies = np.stack(stored), kept_time, np.stack(energy_rows)
         result.steps, result.wall_s, result.final_stress = steps, wall, last_stress[case_index]
         out.append(result)
     return out

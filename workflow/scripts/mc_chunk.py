@@ -4,6 +4,7 @@ import torch
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
 from rgns.montecarlo import CaseInputs, RunSettings, run_realizations
+from rgns.realizations import FINISHED
 from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])
@@ -13,5 +14,5 @@ settings = RunSettings.from_params(snakemake.params.run)
 simulator = load_simulator(snakemake.input.model[0], settings.device).eval() if snakemake.input.model else None
 table = run_realizations(inputs, list(snakemake.params.indices), settings, simulator)
 write_csv(table, snakemake.output[0])
-log.info("%s: %d realizations by %s, %d not ok", inputs.case, len(table), settings.simulator,
-         int((table["status"] != "ok").sum()))
+log.info("%s: %d realizations by %s, %d screened as stable, %d not ok", inputs.case, len(table), settings.simulator,
+         int((table["status"] == "screened").sum()), int((~table["status"].isin(FINISHED)).sum()))

@@ -6,6 +6,7 @@ from rgns.geometry import read_scene
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
 from rgns.metrics import MetricSettings
+from rgns.montecarlo import rollout_settings
 from rgns.pairing import pair_case
 from rgns.tables import write_csv
 from rgns.trajectories import read_packed
@@ -17,7 +18,7 @@ simulator = load_simulator(snakemake.input.model, params.device).eval()
 trajectories = list(read_packed(snakemake.input.packed))
 scenes = {scene.index: scene for scene in map(read_scene, snakemake.input.scenes)}
 paired = pair_case(simulator, trajectories, scenes, MetricSettings(**params.metrics), params.gravity_m_s2,
-                   params.batch_size, params.device)
+                   params.batch_size, params.device, rollout_settings(params.rollout))
 write_csv(paired.pairs, snakemake.output.pairs)
 np.savez_compressed(snakemake.output.energies, **paired.energies())
 log.info("%s: %d realizations paired, %d GNS rollouts not ok", snakemake.wildcards.case, len(paired.pairs),
