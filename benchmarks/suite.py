@@ -1,0 +1,253 @@
+"""Time against error, side by side on the same realizations: MPM settings, GNS variants, skipping.
+
+    python benchmarks/suite.py                       # needs results/ of `snakemake --cores 2 hazard_map`
+    python benchmarks/suite.py --realizations 4 --train-steps 500    # quicker, coarser
+
+Every route simulates the same default-config case-1 Monte Carlo realizations (drawn exactly as
+``rgns.montecarlo`` draws them; the random field on a fixed 1 m grid so a finer mesh samples the
+same field) for the full 10 s, and is measured against one reference: the embedded MPM at 0.5 m
+cells and cfl 0.1 with early stop off. Error of a metric (R, V, I) = mean absolute difference
+from the reference over the realizations, in % of the reference's range over them; "error" is the
+mean of the three. Wall time per realization is the batch's wall time over its size (one CPU
+thread; a GNS rollout includes its 6-frame MPM warm-up).
+
+* MPM: cell size 2 / 1 / 0.5 m, cfl 0.1 / 0.2 / 0.5, early stop on / off.
+* GNS: the trained default model (results/model/gns.pt) with rest-skipping, early stop, both
+  (the Monte Carlo default) or neither; plus architecture variants trained here on the same
+  dataset for the same number of steps (checkpoints in benchmarks/results/models/, resumed when
+  run again).
+* Screen: a stronger variant of case 1 (friction mean 45 deg) where some realizations stand: how
+  many the limit-equilibrium screen skips, whether the MPM would have run any of them out, and the
+  time it saves.
+
+Writes ``benchmarks/results/suite.json``, ``suite.md`` and ``pareto.png`` (time per realization
+against error, every route, the Pareto front drawn).
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import platform
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+
+from rgns.config import load_config  # noqa: E402
+from rgns.gns.rollout import RolloutSettings  # noqa: E402
+from rgns.gns.train import load_simulator, settings_from_config, train  # noqa: E402
+from rgns.metrics import MetricSettings, crest_x, runout_metrics  # noqa: E402
+from rgns.montecarlo import factor_of_safety, rollout_settings, simulate_gns, simulate_mpm  # noqa: E402
+from rgns.realizations import CaseInputs, draw_realization  # noqa: E402
+from rgns.screening import ScreenSettings  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+OUT = REPO / "benchmarks" / "results"
+METRICS = ("runout_m", "volume_m2", "influence_m")
+
+
+def case_inputs(config: dict, case: str, cell_size_m: float, friction_mean_deg: float | None = None) -> CaseInputs:
+    """Case inputs at a given mesh cell size, the field on a fixed 1 m grid."""
+    config = copy.deepcopy(config)
+    config["mesh"]["cell_size_m"] = cell_size_m
+    config["random_field"]["grid_spacing_m"] = 1.0
+    if friction_mean_deg is not None:
+        config["sets"][case][0]["friction_mean_deg"] = friction_mean_deg
+    return CaseInputs.from_config(config, case)
+
+
+def measured(batch, simulated, metrics: MetricSettings) -> list[dict]:
+    rows = []
+    for realization, result in zip(batch, simulated):
+        row = {"index": realization.index, "status": result.status}
+        if result.status == "ok":
+            m = runout_metrics(result.positions[0], result.positions[-1], realization.scene.volumes,
+                               crest_x(realization.scene.vertices), metrics)
+            row |= {key: getattr(m, key) for key in METRICS}
+        rows.append(row)
+    return rows
+
+
+def errors(rows: list[dict], reference: list[dict]) -> dict:
+    """Mean absolute error of R, V, I against the reference, in % of the reference's range."""
+    out = {}
+    pairs = [(r, ref) for r, ref in zip(rows, reference) if r["status"] == "ok" and ref["status"] == "ok"]
+    for key in METRICS:
+        values = np.array([ref[key] for ref in reference if ref["status"] == "ok"])
+        spread = float(np.ptp(values)) or 1.0
+        out[key] = float(np.mean([abs(r[key] - ref[key]) for r, ref in pairs]) / spread * 100) if pairs else float("nan")
+    out["mean"] = float(np.mean([out[key] for key in METRICS]))
+    out["ok"] = len(pairs)
+    return out
+
+
+def mpm_settings(config: dict, **embedded) -> dict:
+    mpm = copy.deepcopy(config["mpm"])
+    mpm["embedded"].update(embedded)
+    return mpm
+
+
+def run_mpm_route(config: dict, cell_size_m: float, n: int, frames: int, **embedded) -> tuple[list[dict], float]:
+    batch = [draw_realization(case_inputs(config, "case1", cell_size_m), i) for i in range(n)]
+    start = time.perf_counter()
+    simulated = simulate_mpm(batch, mpm_settings(config, **embedded), frames, keep="ends")
+    return measured(batch, simulated, MetricSettings(**config["metrics"])), (time.perf_counter() - start) / n
+
+
+def run_gns_route(config: dict, model: Path, n: int, frames: int, rollout: RolloutSettings) -> tuple[list[dict], float]:
+    simulator = load_simulator(model).eval()
+    batch = [draw_realization(case_inputs(config, "case1", config["mesh"]["cell_size_m"]), i) for i in range(n)]
+    start = time.perf_counter()
+    simulated = simulate_gns(simulator, batch, config["mpm"], frames, "cpu", rollout)
+    return measured(batch, simulated, MetricSettings(**config["metrics"])), (time.perf_counter() - start) / n
+
+
+def train_variant(config: dict, models: Path, name: str, steps: int, **model) -> Path:
+    """A GNS variant trained on the pipeline's dataset (resumed from its checkpoint if present)."""
+    model_settings, train_settings = settings_from_config(config["gns"], config["mesh"]["cell_size_m"])
+    out = models / name
+    target = out / "gns.pt"
+    if not target.exists():
+        train(replace(model_settings, **model), replace(train_settings, steps=steps, threads=2),
+              str(REPO / "results/dataset/train.h5"), str(REPO / "results/dataset/valid.h5"), out, target)
+        torch.set_num_threads(1)
+    return target
+
+
+def screen_benchmark(config: dict, n: int, frames: int, friction_mean_deg: float) -> dict:
+    """Screen a stronger case 1; simulate every realization anyway to count false skips."""
+    inputs = case_inputs(config, "case1", config["mesh"]["cell_size_m"], friction_mean_deg)
+    batch = [draw_realization(inputs, i) for i in range(n)]
+    settings = ScreenSettings(**(config["montecarlo"]["screen"] | {"enabled": True}))
+    start = time.perf_counter()
+    safety = [factor_of_safety(r, config["mpm"], settings) for r in batch]
+    screen_s = (time.perf_counter() - start) / n
+    start = time.perf_counter()
+    rows = measured(batch, simulate_mpm(batch, config["mpm"], frames, keep="ends"), MetricSettings(**config["metrics"]))
+    mpm_s = (time.perf_counter() - start) / n
+    skipped = [settings.skips(fs) for fs in safety]
+    false_skips = [row["index"] for row, skip in zip(rows, skipped) if skip and row.get("runout_m", 0.0) > 0.0]
+    return {"friction_mean_deg": friction_mean_deg, "threshold": settings.threshold, "n": n,
+            "factor_of_safety": safety, "mpm_runout_m": [row.get("runout_m") for row in rows],
+            "mpm_volume_m2": [row.get("volume_m2") for row in rows], "screened": int(sum(skipped)),
+            "false_skips": false_skips, "screen_s_per_realization": screen_s, "mpm_s_per_realization": mpm_s,
+            "time_saved_fraction": sum(skipped) / n - screen_s / mpm_s}
+
+
+def pareto_plot(routes: dict, path: Path) -> None:
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    names = [name for name in routes if name != "reference"]
+    points = np.array([[routes[name]["s_per_realization"], routes[name]["error"]["mean"]] for name in names])
+    for (x, y), name in zip(points, names):
+        ax.scatter(x, y, color="C1" if name.startswith("GNS") else "C0", zorder=3)
+        ax.annotate(name, (x, y), fontsize=7, xytext=(4, 3), textcoords="offset points")
+    order = np.argsort(points[:, 0])
+    front, best = [], np.inf
+    for k in order:
+        if points[k, 1] < best:
+            front.append(points[k])
+            best = points[k, 1]
+    front = np.array(front)
+    ax.step(front[:, 0], front[:, 1], where="post", color="0.5", linestyle="--", label="Pareto front")
+    ax.set_xscale("log")
+    ax.set_xlabel("wall time per realization (s, one CPU thread)")
+    ax.set_ylabel("error in R, V, I (mean abs., % of range)")
+    ax.set_title("Time against error vs the 0.5 m / cfl 0.1 MPM reference (blue: MPM, orange: GNS)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+
+
+def markdown(record: dict) -> str:
+    lines = [f"Realizations: {record['n']} (case 1, {record['duration_s']:g} s); GNS variants trained "
+             f"{record['train_steps']} steps; machine: {record['machine']}", "",
+             "| route | s per realization | error R % | error V % | error I % | error mean % | not ok |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for name, route in record["routes"].items():
+        e = route["error"]
+        lines.append(f"| {name} | {route['s_per_realization']:.2f} | {e['runout_m']:.1f} | {e['volume_m2']:.1f} | "
+                     f"{e['influence_m']:.1f} | {e['mean']:.1f} | {record['n'] - e['ok']} |")
+    skip = record["skipping"]
+    lines += ["", f"GNS rest-skipping + early stop vs neither: {skip['speedup']:.2f}x faster; change of the R, V, I "
+              f"errors: {skip['error_change_pct_of_range']} % of range (max per realization "
+              f"{skip['max_change_pct_of_range']} %)."]
+    s = record["screen"]
+    lines += ["", f"Screen (friction mean {s['friction_mean_deg']} deg, threshold {s['threshold']}): {s['screened']} of "
+              f"{s['n']} screened, false skips (screened but the MPM ran out): {s['false_skips']}; "
+              f"{s['screen_s_per_realization'] * 1000:.0f} ms per screen against {s['mpm_s_per_realization']:.2f} s "
+              f"per MPM realization; time saved {s['time_saved_fraction']:.0%}."]
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--realizations", type=int, default=8)
+    parser.add_argument("--train-steps", type=int, default=2000, help="steps for each trained GNS variant")
+    parser.add_argument("--screen-friction", type=float, default=45.0)
+    parser.add_argument("--duration-s", type=float, help="simulated time (default: mpm.duration_s, 10 s)")
+    parser.add_argument("--models", type=Path, default=OUT / "models", help="where trained variants are kept")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    config = load_config(REPO / "config" / "config.yaml")
+    duration_s = args.duration_s or config["mpm"]["duration_s"]
+    frames = int(round(duration_s / config["mpm"]["frame_interval_s"])) + 1
+    n = args.realizations
+    OUT.mkdir(parents=True, exist_ok=True)
+    routes: dict[str, dict] = {}
+
+    def record(name: str, rows: list[dict], seconds: float) -> None:
+        routes[name] = {"s_per_realization": seconds, "rows": rows}
+        print(f"{name}: {seconds:.2f} s per realization", flush=True)
+
+    record("reference", *run_mpm_route(config, 0.5, n, frames, cfl=0.1, early_stop=False))
+    for cell in (2.0, 1.0, 0.5):
+        record(f"MPM {cell:g} m, cfl 0.2", *run_mpm_route(config, cell, n, frames))
+    for cfl in (0.1, 0.5):
+        record(f"MPM 1 m, cfl {cfl:g}", *run_mpm_route(config, 1.0, n, frames, cfl=cfl))
+    record("MPM 1 m, cfl 0.2, no early stop", *run_mpm_route(config, 1.0, n, frames, early_stop=False))
+
+    default_model = REPO / "results" / "model" / "gns.pt"
+    mc = rollout_settings(config["montecarlo"]["rollout"], "ends")
+    plain = replace(mc, skip_rest=False, early_stop=False)
+    record("GNS default, neither", *run_gns_route(config, default_model, n, frames, plain))
+    record("GNS default, rest-skip", *run_gns_route(config, default_model, n, frames, replace(plain, skip_rest=True)))
+    record("GNS default, early stop", *run_gns_route(config, default_model, n, frames, replace(plain, early_stop=True)))
+    record("GNS default, both (MC default)", *run_gns_route(config, default_model, n, frames, mc))
+    variants = {"GNS latent 16, 3 MP": {"latent_size": 16, "mlp_width": 16, "message_passing_steps": 3},
+                "GNS radius 1.0 m": {"radius_m": 1.0}}
+    for name, model in variants.items():
+        path = train_variant(config, args.models, name.replace(" ", "_").replace(",", ""), args.train_steps, **model)
+        record(f"{name}, both", *run_gns_route(config, path, n, frames, mc))
+
+    reference = routes["reference"]["rows"]
+    for route in routes.values():
+        route["error"] = errors(route["rows"], reference)
+    neither, both = routes["GNS default, neither"], routes["GNS default, both (MC default)"]
+    change = {key: round(abs(both["error"][key] - neither["error"][key]), 2) for key in METRICS}
+    per_realization = {}
+    for key in METRICS:
+        spread = float(np.ptp([r[key] for r in reference if r["status"] == "ok"])) or 1.0
+        diffs = [abs(a[key] - b[key]) for a, b in zip(neither["rows"], both["rows"])
+                 if a["status"] == b["status"] == "ok"]
+        per_realization[key] = round(max(diffs) / spread * 100, 2) if diffs else None
+    skipping = {"speedup": neither["s_per_realization"] / both["s_per_realization"],
+                "error_change_pct_of_range": change, "max_change_pct_of_range": per_realization}
+    result = {"n": n, "frames": frames, "duration_s": duration_s, "train_steps": args.train_steps, "routes": routes, "skipping": skipping,
+              "screen": screen_benchmark(config, n, frames, args.screen_friction),
+              "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, 1 thread, CPU"}
+    (OUT / "suite.json").write_text(json.dumps(result, indent=1, default=float) + "\n")
+    (OUT / "suite.md").write_text(markdown(result))
+    pareto_plot(routes, OUT / "pareto.png")
+    print(markdown(result))
+
+
+if __name__ == "__main__":
+    main()
