@@ -13,7 +13,7 @@ thread; a GNS rollout includes its 6-frame MPM warm-up).
 
 * MPM: cell size 2 / 1 / 0.5 m, cfl 0.1 / 0.2 / 0.5, early stop on / off.
 * GNS: the trained default model (results/model/gns.pt) with rest-skipping, early stop, both
-  (the Monte Carlo default) or neither; plus architecture variants trained here on the same
+  (the Monte Carlo default) or neither, and both at other rest thresholds; plus architecture variants trained here on the same
   dataset for the same number of steps (checkpoints in benchmarks/results/models/, resumed when
   run again).
 * Screen: a stronger variant of case 1 (friction mean 45 deg) where some realizations stand: how
@@ -221,6 +221,9 @@ def main() -> None:
     record("GNS default, rest-skip", *run_gns_route(config, default_model, n, frames, replace(plain, skip_rest=True)))
     record("GNS default, early stop", *run_gns_route(config, default_model, n, frames, replace(plain, early_stop=True)))
     record("GNS default, both (MC default)", *run_gns_route(config, default_model, n, frames, mc))
+    for rest in (2.5e-4, 1e-3):
+        record(f"GNS default, both, rest {rest:g} m/frame",
+               *run_gns_route(config, default_model, n, frames, replace(mc, rest_velocity=rest)))
     variants = {"GNS latent 16, 3 MP": {"latent_size": 16, "mlp_width": 16, "message_passing_steps": 3},
                 "GNS radius 1.0 m": {"radius_m": 1.0}}
     for name, model in variants.items():

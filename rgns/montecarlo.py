@@ -146,7 +146,7 @@ class RunSettings:
 def rollout_settings(section: dict[str, Any], keep: str = "all") -> RolloutSettings:
     """The GNS rollout options of config section ``montecarlo.rollout``."""
     return RolloutSettings(skip_rest=section["skip_rest"], rest_velocity=section["rest_velocity_m_per_frame"],
-                           context_hops=section["context_hops"], early_stop=section["early_stop"],
+                           rest_displacement=section["rest_displacement_m"], context_hops=section["context_hops"], early_stop=section["early_stop"],
                            early_stop_fraction=section["early_stop_fraction"],
                            early_stop_frames=section["early_stop_frames"], keep=keep)
 

@@ -115,16 +115,47 @@ def tiny_dataset(tmp_path_factory):
     return packed
 
 
-def test_training_on_a_tiny_dataset_lowers_the_loss_by_a_large_factor(tiny_dataset, tmp_path):
+@pytest.fixture(scope="module")
+def trained_small(tiny_dataset, tmp_path_factory):
+    """The small model trained 800 steps on the sliding blocks, and its training summary."""
+    directory = tmp_path_factory.mktemp("trained")
     settings = TrainSettings(steps=800, batch_graphs=2, learning_rate=3e-3, noise_std=0.0, log_every=25,
                              validate_every=800, checkpoint_every=800, validation_rollout_frames=10)
-    summary = train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
-    history = (tmp_path / "history.csv").read_text().splitlines()
+    torch.set_num_threads(1)
+    return directory, train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], directory)
+
+
+def test_training_on_a_tiny_dataset_lowers_the_loss_by_a_large_factor(trained_small):
+    directory, summary = trained_small
+    history = (directory / "history.csv").read_text().splitlines()
     losses = [float(line.split(",")[history[0].split(",").index("train_loss")]) for line in history[1:]]
     print(f"loss {losses[0]:.4g} -> {losses[-1]:.4g} in {summary['wall_s']:.1f} s")
     assert losses[-1] < losses[0] / 20
-    simulator = load_simulator(tmp_path / "gns.pt")
+    simulator = load_simulator(directory / "gns.pt")
     assert simulator.settings == SMALL
+
+
+@pytest.mark.parametrize("skipping", [False, True])
+def test_a_trained_rollout_twice_the_training_horizon_stays_in_the_domain_and_slows_down(trained_small, tiny_dataset,
+                                                                                       skipping):
+    """Stability stress: 80 frames from a 40-frame training horizon, every realization of both sets."""
+    directory, _ = trained_small
+    simulator = load_simulator(directory / "gns.pt").eval()
+    settings = RolloutSettings(skip_rest=skipping, early_stop=skipping)
+    for name in ("train", "valid"):
+        sampler = WindowSampler(tiny_dataset[name], SMALL.history)
+        horizon = sampler.frames
+        for k in range(sampler.n_trajectories):
+            result = rollout(simulator, [sampler.frames_of(k, 0, SMALL.history + 1)], [sampler.particle_type[k].numpy()],
+                             [sampler.tan_friction[k].numpy()], 2 * horizon, settings)[0]
+            positions = result.positions
+            assert result.status == "ok" and np.isfinite(positions).all()
+            lower, upper = simulator.bounds[:, 0].numpy(), simulator.bounds[:, 1].numpy()
+            assert (positions >= lower).all() and (positions <= upper).all()
+            kinetic = (np.diff(positions, axis=0) ** 2).sum(axis=2).mean(axis=1)  # mean squared velocity per frame
+            first, last = kinetic[:horizon // 4].mean(), kinetic[-horizon // 4:].mean()
+            print(f"{name} {k}: mean v^2 {first:.3g} -> {last:.3g} over {2 * horizon} frames")
+            assert last < 0.5 * first
 
 
 def _ddp_worker(rank: int, world: int, init_file: str, batches: list, out: str) -> None:

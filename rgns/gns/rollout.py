@@ -2,11 +2,12 @@
 
 Options, each switchable so their effect on error can be measured:
 
-* ``skip_rest``: a particle that has not moved more than ``rest_velocity`` per frame over its
-  whole history, and whose neighbours are all at rest too, keeps its position; the network runs
-  only on the moving particles and their neighbours.
-  ``context_hops`` rings of neighbours around them are evaluated too, so the updated particles see
-  a graph close to the full one (the network's receptive field is one ring per message-passing step).
+* ``skip_rest``: a particle that moved less than ``rest_velocity`` in each of its history frames,
+  lies within ``rest_displacement`` of where the rollout started it, and whose neighbours are at
+  rest too, keeps its position; the network runs only on the other particles and
+  ``context_hops`` rings of neighbours around them. So the part of a slope that does not fail
+  is skipped, while slide particles, even slowing down, are never frozen (freezing them changed
+  V by up to 3.7 % of its range per realization); a deposit at rest is ended by early stop.
 * ``early_stop``: a realization whose mean squared particle velocity stays below
   ``early_stop_fraction`` of its peak for ``early_stop_frames`` frames stops; its later frames
   repeat its last state.
@@ -34,6 +35,7 @@ class RolloutSettings:
     skip_rest: bool = False
     rest_velocity: float = 1e-4  # m per frame
     context_hops: int = 1
+    rest_displacement: float = 0.1  # m from the start: a particle displaced more is never at rest
     early_stop: bool = False
     early_stop_fraction: float = 0.01
     early_stop_frames: int = 20
@@ -91,6 +93,7 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
     live = torch.ones(n_graphs, dtype=torch.bool, device=device)
     peak = torch.zeros(n_graphs, device=device)
     quiet = torch.zeros(n_graphs, dtype=torch.long, device=device)
+    origin = history[:, -1].clone()
     bounds = simulator.bounds.to(device)
     margin = settings.domain_margin_m
     for frame in range(histories[0].shape[0], frames):
@@ -101,10 +104,10 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
         update = active.clone()
         if settings.skip_rest:
             speeds = (history[:, 1:] - history[:, :-1]).norm(dim=2).amax(dim=1)
-            restless = speeds > settings.rest_velocity
-            near_restless = torch.zeros_like(restless).index_add_(0, receivers, restless[senders].to(torch.bool)) \
-                if len(senders) else torch.zeros_like(restless)
-            update = active & (restless | near_restless.bool())
+            awake = (speeds > settings.rest_velocity) | ((history[:, -1] - origin).norm(dim=1) > settings.rest_displacement)
+            near_awake = torch.zeros_like(awake).index_add_(0, receivers, awake[senders]) \
+                if len(senders) else torch.zeros_like(awake)
+            update = active & (awake | near_awake)
         involved = update.clone()
         for _ in range(settings.context_hops):  # neighbours of updated particles give context
             involved[senders[involved[receivers]]] = True
