@@ -43,8 +43,8 @@ import torch  # noqa: E402
 from rgns.config import load_config  # noqa: E402
 from rgns.gns.rollout import RolloutSettings  # noqa: E402
 from rgns.gns.train import load_simulator, settings_from_config, train  # noqa: E402
-from rgns.metrics import MetricSettings, crest_x, runout_metrics  # noqa: E402
-from rgns.montecarlo import factor_of_safety, rollout_settings, simulate_gns, simulate_mpm  # noqa: E402
+from rgns.metrics import MetricSettings  # noqa: E402
+from rgns.montecarlo import factor_of_safety, measure, rollout_settings, simulate_gns, simulate_mpm  # noqa: E402
 from rgns.realizations import CaseInputs, draw_realization  # noqa: E402
 from rgns.screening import ScreenSettings  # noqa: E402
 
@@ -63,16 +63,11 @@ def case_inputs(config: dict, case: str, cell_size_m: float, friction_mean_deg: 
     return CaseInputs.from_config(config, case)
 
 
-def measured(batch, simulated, metrics: MetricSettings) -> list[dict]:
-    rows = []
-    for realization, result in zip(batch, simulated):
-        row = {"index": realization.index, "status": result.status}
-        if result.status == "ok":
-            m = runout_metrics(result.positions[0], result.positions[-1], realization.scene.volumes,
-                               crest_x(realization.scene.vertices), metrics)
-            row |= {key: getattr(m, key) for key in METRICS}
-        rows.append(row)
-    return rows
+def measured(batch, simulated, config: dict) -> list[dict]:
+    """Each realization's Monte Carlo table row, measured as rgns.montecarlo measures it."""
+    mpm = config["mpm"]
+    return [measure(r, result, MetricSettings(**config["metrics"]), mpm["density_kg_m3"], mpm["frame_interval_s"],
+                    mpm["gravity_m_s2"]) for r, result in zip(batch, simulated)]
 
 
 def errors(rows: list[dict], reference: list[dict]) -> dict:
@@ -98,7 +93,7 @@ def run_mpm_route(config: dict, cell_size_m: float, n: int, frames: int, **embed
     batch = [draw_realization(case_inputs(config, "case1", cell_size_m), i) for i in range(n)]
     start = time.perf_counter()
     simulated = simulate_mpm(batch, mpm_settings(config, **embedded), frames, keep="ends")
-    return measured(batch, simulated, MetricSettings(**config["metrics"])), (time.perf_counter() - start) / n
+    return measured(batch, simulated, config), (time.perf_counter() - start) / n
 
 
 def run_gns_route(config: dict, model: Path, n: int, frames: int, rollout: RolloutSettings) -> tuple[list[dict], float]:
@@ -106,7 +101,7 @@ def run_gns_route(config: dict, model: Path, n: int, frames: int, rollout: Rollo
     batch = [draw_realization(case_inputs(config, "case1", config["mesh"]["cell_size_m"]), i) for i in range(n)]
     start = time.perf_counter()
     simulated = simulate_gns(simulator, batch, config["mpm"], frames, "cpu", rollout)
-    return measured(batch, simulated, MetricSettings(**config["metrics"])), (time.perf_counter() - start) / n
+    return measured(batch, simulated, config), (time.perf_counter() - start) / n
 
 
 def train_variant(config: dict, models: Path, name: str, steps: int, **model) -> Path:
@@ -130,7 +125,7 @@ def screen_benchmark(config: dict, n: int, frames: int, friction_mean_deg: float
     safety = [factor_of_safety(r, config["mpm"], settings) for r in batch]
     screen_s = (time.perf_counter() - start) / n
     start = time.perf_counter()
-    rows = measured(batch, simulate_mpm(batch, config["mpm"], frames, keep="ends"), MetricSettings(**config["metrics"]))
+    rows = measured(batch, simulate_mpm(batch, config["mpm"], frames, keep="ends"), config)
     mpm_s = (time.perf_counter() - start) / n
     skipped = [settings.skips(fs) for fs in safety]
     false_skips = [row["index"] for row, skip in zip(rows, skipped) if skip and row.get("runout_m", 0.0) > 0.0]

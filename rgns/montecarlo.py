@@ -146,8 +146,8 @@ class RunSettings:
 def rollout_settings(section: dict[str, Any], keep: str = "all") -> RolloutSettings:
     """The GNS rollout options of config section ``montecarlo.rollout``."""
     return RolloutSettings(skip_rest=section["skip_rest"], rest_velocity=section["rest_velocity_m_per_frame"],
-                           rest_displacement=section["rest_displacement_m"], context_hops=section["context_hops"], early_stop=section["early_stop"],
-                           early_stop_fraction=section["early_stop_fraction"],
+                           rest_displacement=section["rest_displacement_m"], context_hops=section["context_hops"],
+                           early_stop=section["early_stop"], early_stop_fraction=section["early_stop_fraction"],
                            early_stop_frames=section["early_stop_frames"], keep=keep)
 
 
@@ -167,8 +167,9 @@ def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettin
                  for i in batch_indices]
         safety = {r.index: factor_of_safety(r, settings.mpm, screen) if screen.enabled else float("nan")
                   for r in batch}
-        to_run = [r for r in batch if not screen.skips(safety[r.index])]
-        simulated = {r.index: screened(r) for r in batch if screen.skips(safety[r.index])}
+        skipped = {r.index for r in batch if screen.skips(safety[r.index])}
+        to_run = [r for r in batch if r.index not in skipped]
+        simulated = {r.index: screened(r) for r in batch if r.index in skipped}
         simulated |= dict(zip([r.index for r in to_run], _simulate(to_run, settings, simulator)))
         for realization in batch:
             result = simulated[realization.index]

@@ -77,7 +77,7 @@ def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
         for metric, entry in exceedance["metrics"].items() for d in entry["distances"]])
     deterministic = ", ".join(f"{metric} {entry['deterministic_m']:.2f} m"
                               for metric, entry in exceedance["metrics"].items() if entry["deterministic_m"] is not None)
-    screened = exceedance.get("screened", 0)
+    screened = exceedance["screened"]
     stable = f"{screened} found stable by the limit-equilibrium screen and counted as no failure; " if screened else ""
     summary = (f"{exceedance['n']} realizations used ({stable}{exceedance['not_ok']} not ok and left out); "
                f"deterministic mean-field realization: {deterministic or 'not available'}.")

@@ -28,6 +28,20 @@ SOIL = 6  # particle type of soil, as in the geoelements/gns datasets
 FORMAT_VERSION = 1
 PER_PARTICLE = ("particle_type", "friction_deg", "volume_m2", "mass_kg")
 
+KEEP_MODES = ("all", "ends")  # frames a simulation keeps: every one, or the first and the last two
+
+
+def check_keep(keep: str) -> None:
+    """A ValueError naming ``keep`` unless it is one of KEEP_MODES."""
+    if keep not in KEEP_MODES:
+        raise ValueError(f"keep = {keep!r}: expected one of {KEEP_MODES}")
+
+
+def kept_frames(keep: str, frames: int) -> np.ndarray:
+    """The frame numbers a simulation of ``frames`` frames keeps under ``keep``."""
+    check_keep(keep)
+    return np.arange(frames) if keep == "all" else np.array([0, frames - 2, frames - 1])
+
 
 class TrajectoryError(ValueError):
     """A trajectory or packed file is unreadable or inconsistent; the message names the file."""

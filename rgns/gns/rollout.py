@@ -27,7 +27,7 @@ import torch
 
 from rgns.gns.graph import radius_graph
 from rgns.gns.simulator import GraphInput, LearnedSimulator
-from rgns.trajectories import SOIL
+from rgns.trajectories import SOIL, check_keep, kept_frames
 
 
 @dataclass
@@ -43,16 +43,7 @@ class RolloutSettings:
     keep: str = "all"
 
     def __post_init__(self) -> None:
-        if self.keep not in KEEP_MODES:
-            raise ValueError(f"rollout keep = {self.keep!r}: expected one of {KEEP_MODES}")
-
-
-KEEP_MODES = ("all", "ends")
-
-
-def kept_frames(keep: str, frames: int) -> np.ndarray:
-    """The frame numbers a rollout of ``frames`` frames returns under ``keep``."""
-    return np.arange(frames) if keep == "all" else np.array([0, frames - 2, frames - 1])
+        check_keep(self.keep)
 
 
 @dataclass

@@ -26,6 +26,7 @@ from rgns.cbgeo.case import Case, CaseError
 from rgns.mpm.mohr_coulomb import MohrCoulomb
 from rgns.mpm.shape import SHAPE_FUNCTIONS, RegularGrid
 from rgns.mpm.step import Boundary, Particles, substep
+from rgns.trajectories import kept_frames
 
 log = logging.getLogger(__name__)
 
@@ -170,8 +171,6 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     each case's particles a starting velocity [N, 2] (they start at rest otherwise); ``keep`` is
     "all" frames or the "ends" (first and last two).
     """
-    if keep not in ("all", "ends"):
-        raise ValueError(f"keep = {keep!r}: expected 'all' or 'ends'")
     start_wall = time.perf_counter()
     device = torch.device(settings.device)
     grid = grid_of(cases[0])
@@ -188,6 +187,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     frame_interval_s = frame_interval_s or meta["frame_interval_s"]
     duration_s = duration_s or meta["nsteps"] * meta["dt_s"]
     n_frames = int(round(duration_s / frame_interval_s)) + 1
+    kept = kept_frames(keep, n_frames)
     shape = SHAPE_FUNCTIONS[settings.shape_function]
 
     particles = particles_of(cases, settings, device)
@@ -197,7 +197,6 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     counts = [len(case.positions) for case in cases]
     live = list(range(len(cases)))  # case index of each batch slot
     frames = [[case.positions.astype(np.float32)] for case in cases]
-    reached = [1] * len(cases)  # frames simulated per case
     history = [[] for _ in cases]
     results: list[RunResult | None] = [None] * len(cases)
     last_stress: list[np.ndarray | None] = [None] * len(cases)
@@ -239,7 +238,6 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
             frames[case_index].append(split[slot])
             if keep == "ends" and len(frames[case_index]) > 3:
                 del frames[case_index][1]
-            reached[case_index] = frame + 1
             history[case_index].append(energy_np[slot])
             reason = None
             if finite[slot] > 0 or not np.isfinite(energy_np[slot]).all():
@@ -277,14 +275,13 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     for case_index in range(len(cases)):
         result = results[case_index] or RunResult(np.empty(0), np.empty(0), np.empty(0))
         stored, energy_rows = frames[case_index], history[case_index]
+        ran_to_end = len(energy_rows) == n_frames  # one energy row per frame simulated
         energy_rows += [energy_rows[-1]] * (n_frames - len(energy_rows))
         if keep == "all":
             stored += [stored[-1]] * (n_frames - len(stored))
-            kept_time = time_s
-        else:
-            stored = stored if reached[case_index] == n_frames else [stored[0], stored[-1], stored[-1]]
-            kept_time = time_s[[0, n_frames - 2, n_frames - 1]]
-        result.positions, result.time_s, result.energies = np.stack(stored), kept_time, np.stack(energy_rows)
+        elif not ran_to_end:
+            stored = [stored[0], stored[-1], stored[-1]]
+        result.positions, result.time_s, result.energies = np.stack(stored), time_s[kept], np.stack(energy_rows)
         result.steps, result.wall_s, result.final_stress = steps, wall, last_stress[case_index]
         out.append(result)
     return out
