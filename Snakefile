@@ -32,6 +32,14 @@ include: "rules/montecarlo.smk"
 include: "rules/hazard.smk"
 
 
+# Light table and figure steps run where snakemake runs, not as cluster jobs of their own.
+localrules:
+    mc_collect,
+    exceedance,
+    zoning,
+    report,
+
+
 rule dataset:
     """MPM trajectories of every set, packed, and the train/valid export for geoelements/gns."""
     input:

@@ -35,6 +35,7 @@ from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_me
 from rgns.mpm.solver import EngineSettings, RunResult, run_batch
 from rgns.realizations import FINISHED, MEAN_FIELD, CaseInputs, Realization, draw_realization, mean_field_realization
 from rgns.screening import ScreenSettings, minimum_factor_of_safety
+from rgns.tables import TableError, read_csv
 
 SIMULATORS = ("gns", "mpm")
 log = logging.getLogger(__name__)
@@ -114,6 +115,23 @@ def measure(realization: Realization, simulated: Simulated, metrics: MetricSetti
 COLUMNS = ["index", "status", "n_particles", "friction_mean_deg", "factor_of_safety", "runout_m", "volume_m2",
            "influence_m", "displaced_fraction", "toe_x_m", "crest_x_m", "front_x_m", "rear_x_m", "potential_final",
            "kinetic_final", "dissipated_final"]
+
+
+def collect_chunks(paths: list[str], realizations: int, chunk_size: int) -> pd.DataFrame:
+    """A case's chunk tables (chunk k holds realizations k*chunk_size onward) as one table in
+    index order, each checked to hold exactly its realizations: one cut short, or left over from
+    another montecarlo config, is named."""
+    if len(paths) != -(-realizations // chunk_size):
+        raise TableError(f"{len(paths)} chunk tables for {realizations} realizations in chunks of {chunk_size}")
+    tables = []
+    for k, path in enumerate(paths):
+        table = read_csv(path, COLUMNS)
+        expected = list(range(k * chunk_size, min((k + 1) * chunk_size, realizations)))
+        if sorted(table["index"].tolist()) != expected:
+            raise TableError(f"{path}: holds realizations {table['index'].tolist()}, not {expected[0]}..{expected[-1]} "
+                             "(cut short, or from another montecarlo config); delete it and run again")
+        tables.append(table)
+    return pd.concat(tables, ignore_index=True).sort_values("index", kind="stable").reset_index(drop=True)
 
 
 @dataclass

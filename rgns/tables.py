@@ -20,25 +20,26 @@ def write_csv(table: pd.DataFrame, path: str | Path) -> None:
     os.replace(partial, path)
 
 
+def _last_byte(path: str | Path) -> bytes:
+    with open(path, "rb") as handle:
+        if handle.seek(0, os.SEEK_END) == 0:
+            return b""
+        handle.seek(-1, os.SEEK_END)
+        return handle.read(1)
+
+
 def read_csv(path: str | Path, columns: list[str] | None = None) -> pd.DataFrame:
-    """A table, checked for ``columns``."""
+    """A table, checked for ``columns`` and for being whole (every table written here ends with a
+    newline; one cut short by a full disk or a copy would otherwise read as a row of blanks)."""
     try:
+        if _last_byte(path) not in (b"", b"\n"):
+            raise TableError(f"{path}: cut short (no newline after its last row); delete it and run again")
         table = pd.read_csv(path)
+    except TableError:
+        raise
     except (OSError, ValueError) as error:
         raise TableError(f"{path}: not a readable CSV table ({error})") from error
     missing = [c for c in columns or [] if c not in table.columns]
     if missing:
         raise TableError(f"{path}: missing column(s) {missing}")
     return table
-
-
-def concatenate_csv(paths: list[str | Path], key: str) -> pd.DataFrame:
-    """Tables stacked and sorted by ``key``; a key seen twice is an error naming both files."""
-    tables = [read_csv(path, [key]).assign(_source=str(path)) for path in paths]
-    table = pd.concat(tables, ignore_index=True).sort_values(key, kind="stable")
-    repeated = table[table.duplicated(key, keep=False)]
-    if len(repeated):
-        first = repeated.iloc[0]
-        sources = sorted(set(repeated[repeated[key] == first[key]]["_source"]))
-        raise TableError(f"{key} {first[key]} appears in more than one table: {', '.join(sources)}")
-    return table.drop(columns="_source").reset_index(drop=True)

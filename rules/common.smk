@@ -16,6 +16,11 @@ wildcard_constraints:
     chunk=r"[0-9]+",
 
 
+def gpus(device):
+    """GPUs a job asks its cluster scheduler for: one on a cuda device, none on the CPU."""
+    return 1 if str(device).startswith("cuda") else 0
+
+
 def set_ids(set_name):
     """File-name ids of every realization of a set."""
     return realization_ids(config["sets"][set_name])

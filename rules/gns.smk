@@ -16,6 +16,7 @@ rule train:
     threads: config["gns"]["threads"]
     resources:
         mem_mb=4000,
+        gpu=gpus(config["gns"]["device"]),
     conda:
         "../envs/rgns.yaml"
     script:

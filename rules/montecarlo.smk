@@ -13,6 +13,7 @@ rule mc_chunk:
     threads: config["montecarlo"]["threads"]
     resources:
         mem_mb=2000,
+        gpu=gpus(config["montecarlo"]["device"]),
     conda:
         "../envs/rgns.yaml"
     script:
@@ -34,6 +35,7 @@ rule mc_mean_field:
     threads: config["montecarlo"]["threads"]
     resources:
         mem_mb=2000,
+        gpu=gpus(config["montecarlo"]["device"]),
     conda:
         "../envs/rgns.yaml"
     script:
@@ -46,6 +48,9 @@ rule mc_collect:
         mc_chunks,
     output:
         "results/mc/{case}/realizations.csv",
+    params:
+        realizations=config["montecarlo"]["realizations"],
+        chunk_size=config["montecarlo"]["chunk_size"],
     log:
         "logs/mc_collect/{case}.log",
     conda:

@@ -18,6 +18,7 @@ rule validation_rollout:
     threads: config["montecarlo"]["threads"]
     resources:
         mem_mb=2000,
+        gpu=gpus(config["montecarlo"]["device"]),
     conda:
         "../envs/rgns.yaml"
     script:

@@ -3,7 +3,9 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -42,17 +44,6 @@ def test_a_bad_config_stops_before_any_job_runs_naming_key_and_value(tmp_path):
     assert result.returncode != 0
     assert "'sets.train[0].correlation_length_x_m' = -8.0" in result.stderr + result.stdout
     assert not (tmp_path / "results").exists()
-
-
-@pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    """The tiny workflow run to completion once, for the tests that change its config."""
-    workdir = tmp_path_factory.mktemp("tiny")
-    config = load_yaml(TINY_CONFIG)
-    path = write_config(workdir / "config.yaml", config)
-    result = snakemake(workdir, "--cores", "2", "hazard_map", config=path)
-    assert result.returncode == 0, result.stderr
-    return workdir, config
 
 
 def test_the_tiny_workflow_writes_scenes_fields_previews_and_the_mpm_dataset(built):
@@ -172,3 +163,21 @@ def test_monte_carlo_results_do_not_depend_on_the_chunk_size(built, tmp_path):
     assert result.returncode == 0, result.stderr
     table = "results/mc/case1/realizations.csv"
     assert (copy_dir / table).read_bytes() == (workdir / table).read_bytes()
+
+
+def test_jobs_ask_their_scheduler_for_a_gpu_exactly_when_their_device_is_cuda(tmp_path):
+    """config/paper.yaml trains and rolls out on cuda: those jobs ask SLURM for a GPU; on the
+    default config's cpu no job does."""
+    def gpu_requests(config: Path) -> dict[str, set[str]]:
+        output = snakemake(tmp_path, "-n", "results/mc/case1/chunk_000.csv", "results/model/gns.pt",
+                           config=config).stdout
+        requests: dict[str, set[str]] = {}
+        for block in output.split("\nrule ")[1:]:
+            match = re.search(r"gpu=(\d+)", block)
+            requests.setdefault(block.split(":", 1)[0], set()).add(match.group(1) if match else "none")
+        return requests
+
+    paper = gpu_requests(REPO / "config" / "paper.yaml")
+    assert paper["train"] == paper["mc_chunk"] == {"1"} and paper["mpm_run"] == {"none"}
+    default = gpu_requests(REPO / "config" / "config.yaml")
+    assert default["train"] == default["mc_chunk"] == {"0"}

@@ -1,8 +1,9 @@
 """Rule mc_collect: one table of every Monte Carlo realization of a case, in index order."""
 from rgns.logsetup import log_to_file
-from rgns.tables import concatenate_csv, write_csv
+from rgns.montecarlo import collect_chunks
+from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])
-table = concatenate_csv(snakemake.input, key="index")
+table = collect_chunks(snakemake.input, snakemake.params.realizations, snakemake.params.chunk_size)
 write_csv(table, snakemake.output[0])
 log.info("%d realizations from %d chunks, %d not ok", len(table), len(snakemake.input), int((table["status"] != "ok").sum()))
