@@ -19,7 +19,7 @@ from rgns.montecarlo import rollout_settings
 from suite import METRICS, OUT, REPO, errors, run_gns_route
 
 SETTINGS = [  # (context_hops, rest_displacement_m, rest_velocity_m_per_frame)
-    (1, 0.1, 5e-4), (2, 0.1, 5e-4), (1, 0.05, 5e-4), (1, 0.05, 2.5e-4)]
+    (1, 0.1, 5e-4), (2, 0.1, 5e-4), (1, 0.05, 5e-4), (1, 0.05, 2.5e-4), (1, 0.05, 1e-4)]
 
 
 def main() -> None:
