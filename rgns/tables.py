@@ -21,6 +21,7 @@ def write_csv(table: pd.DataFrame, path: str | Path) -> None:
 
 
 def _last_byte(path: str | Path) -> bytes:
+    """The file's last byte (empty for an empty file)."""
     with open(path, "rb") as handle:
         if handle.seek(0, os.SEEK_END) == 0:
             return b""
