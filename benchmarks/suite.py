@@ -2,6 +2,7 @@
 
     python benchmarks/suite.py                       # needs results/ of `snakemake --cores 2 hazard_map`
     python benchmarks/suite.py --realizations 4 --train-steps 500    # quicker, coarser
+    python benchmarks/suite.py --cbgeo /path/to/mpm  # add the real CB-Geo to an existing suite.json
 
 Every route simulates the same default-config case-1 Monte Carlo realizations (drawn exactly as
 ``rgns.montecarlo`` draws them; the random field on a fixed 1 m grid so a finer mesh samples the
@@ -16,6 +17,9 @@ thread; a GNS rollout includes its 6-frame MPM warm-up).
   (the Monte Carlo default) or neither, and both at other rest thresholds; plus architecture variants trained here on the same
   dataset for the same number of steps (checkpoints in benchmarks/results/models/, resumed when
   run again).
+* CB-Geo (``--cbgeo``): the real ``mpm`` binary on the same realizations at the default 1 m cells,
+  one thread, one realization after another, added to an existing ``suite.json`` (it is slow and
+  cannot be installed from a package registry).
 * Screen: a stronger variant of case 1 (friction mean 45 deg) where some realizations stand: how
   many the limit-equilibrium screen skips, whether the MPM would have run any of them out, and the
   time it saves.
@@ -29,6 +33,7 @@ import argparse
 import copy
 import json
 import platform
+import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -40,11 +45,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
+from rgns.cbgeo.runner import MPMDiverged, run_cbgeo, trajectory_from_cbgeo  # noqa: E402
+from rgns.cbgeo.writer import write_case  # noqa: E402
 from rgns.config import load_config  # noqa: E402
 from rgns.gns.rollout import RolloutSettings  # noqa: E402
 from rgns.gns.train import load_simulator, settings_from_config, train  # noqa: E402
 from rgns.metrics import MetricSettings  # noqa: E402
-from rgns.montecarlo import factor_of_safety, measure, rollout_settings, simulate_gns, simulate_mpm  # noqa: E402
+from rgns.montecarlo import (Simulated, factor_of_safety, measure, rollout_settings, simulate_gns,  # noqa: E402
+                             simulate_mpm)
 from rgns.realizations import CaseInputs, draw_realization  # noqa: E402
 from rgns.screening import ScreenSettings  # noqa: E402
 
@@ -102,6 +110,29 @@ def run_gns_route(config: dict, model: Path, n: int, frames: int, rollout: Rollo
     start = time.perf_counter()
     simulated = simulate_gns(simulator, batch, config["mpm"], frames, "cpu", rollout)
     return measured(batch, simulated, config), (time.perf_counter() - start) / n
+
+
+def run_cbgeo_route(config: dict, binary: str, n: int, frames: int) -> tuple[list[dict], float]:
+    """The same realizations through the real CB-Geo ``mpm`` (one thread, one after another);
+    the time includes writing each case and reading its output back."""
+    mpm = config["mpm"]
+    case_settings = {key: value for key, value in mpm.items() if key not in ("engine", "cbgeo")}
+    case_settings["duration_s"] = (frames - 1) * mpm["frame_interval_s"]
+    options = {"binary": binary, "threads": 1, "keep_raw": False, "timeout_s": 7200}
+    batch = [draw_realization(case_inputs(config, "case1", config["mesh"]["cell_size_m"]), i) for i in range(n)]
+    simulated = []
+    with tempfile.TemporaryDirectory(prefix="rgns-suite-cbgeo-") as scratch:
+        start = time.perf_counter()
+        for r in batch:
+            label, work = f"case1 realization {r.index:04d}", Path(scratch) / f"{r.index:04d}"
+            case_dir = write_case(work / "case", r.scene, r.friction_deg, case_settings)
+            try:
+                case, raw, _ = run_cbgeo(case_dir, work / "run", work / "mpm.log", options, label)
+                simulated.append(Simulated(trajectory_from_cbgeo(case, raw, label, {}).positions, "ok"))
+            except MPMDiverged as error:
+                simulated.append(Simulated(np.empty(0), f"diverged: {error}"))
+        seconds = (time.perf_counter() - start) / n
+    return measured(batch, simulated, config), seconds
 
 
 def train_variant(config: dict, models: Path, name: str, steps: int, **model) -> Path:
@@ -191,9 +222,19 @@ def main() -> None:
     parser.add_argument("--duration-s", type=float, help="simulated time (default: mpm.duration_s, 10 s)")
     parser.add_argument("--models", type=Path, default=OUT / "models", help="where trained variants are kept")
     parser.add_argument("--replot", action="store_true", help="redraw pareto.png and suite.md from suite.json")
+    parser.add_argument("--cbgeo", metavar="MPM", help="add a CB-Geo route (this mpm binary) to suite.json")
     args = parser.parse_args()
-    if args.replot:
+    if args.replot or args.cbgeo:
         record = json.loads((OUT / "suite.json").read_text())
+        if args.cbgeo:
+            torch.set_num_threads(1)
+            config = load_config(REPO / "config" / "config.yaml")
+            rows, seconds = run_cbgeo_route(config, args.cbgeo, record["n"], record["frames"])
+            name = f"CB-Geo {config['mesh']['cell_size_m']:g} m, -p 1"
+            record["routes"][name] = {"s_per_realization": seconds, "rows": rows,
+                                      "error": errors(rows, record["routes"]["reference"]["rows"])}
+            print(f"{name}: {seconds:.2f} s per realization, error {record['routes'][name]['error']}", flush=True)
+            (OUT / "suite.json").write_text(json.dumps(record, indent=1, default=float) + "\n")
         pareto_plot(record["routes"], OUT / "pareto.png")
         (OUT / "suite.md").write_text(markdown(record))
         return
