@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-DAEMONS = ("slurmctld", "slurmd", "munged", "sinfo", "squeue", "sbatch")
+PROGRAMS = ("slurmctld", "slurmd", "munged", "sinfo", "squeue", "sbatch")  # daemons and the clients used
 SYSTEM_CONF = Path("/etc/slurm/slurm.conf")
 MUNGE_KEY = Path("/etc/munge/munge.key")
 PARTITION = "debug"
@@ -55,7 +55,7 @@ PartitionName={partition} Nodes={host} Default=YES MaxTime=INFINITE State=UP
 
 def missing() -> list[str]:
     """The SLURM and munge programs not on PATH (or the reason this cannot run)."""
-    absent = [name for name in DAEMONS if shutil.which(name) is None]
+    absent = [name for name in PROGRAMS if shutil.which(name) is None]
     if os.geteuid() != 0:
         absent.append("root (the daemons run as root)")
     return absent

@@ -8,15 +8,13 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 import torch
 
-from conftest import REPO
-from workflow_helpers import scheduled, snakemake, write_config
+from workflow_helpers import scheduled, snakemake, snakemake_command, write_config
 
 pytestmark = pytest.mark.workflow
 
@@ -38,10 +36,9 @@ def fingerprints(root: Path, *patterns: str) -> dict[str, tuple[str, int]]:
 def start(workdir: Path, *args: str, config: Path, log: Path) -> subprocess.Popen:
     """snakemake in the background, output to ``log``, in its own process group so it can be
     killed with its jobs."""
-    command = [sys.executable, "-m", "snakemake", *args, "--snakefile", str(REPO / "Snakefile"),
-               "--directory", str(workdir), "--configfile", str(config)]
     with open(log, "w") as out:
-        return subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+        return subprocess.Popen(snakemake_command(workdir, *args, config=config), stdout=out, stderr=subprocess.STDOUT,
+                                start_new_session=True)
 
 
 def kill_when(process: subprocess.Popen, ready, workdir: Path, config: Path, timeout_s: float = 300) -> None:

@@ -13,12 +13,16 @@ import yaml
 REPO = Path(__file__).resolve().parent.parent
 
 
-def snakemake(workdir: Path, *args: str, config: Path | None = None, timeout: int = 900) -> subprocess.CompletedProcess:
-    """``snakemake`` on the repository's Snakefile in ``workdir`` (targets go in ``args``)."""
+def snakemake_command(workdir: Path, *args: str, config: Path | None = None) -> list[str]:
+    """The ``snakemake`` command line on the repository's Snakefile in ``workdir``."""
     command = [sys.executable, "-m", "snakemake", "--snakefile", str(REPO / "Snakefile"),
                "--directory", str(workdir), *args]
-    if config is not None:
-        command += ["--configfile", str(config)]
+    return command + ["--configfile", str(config)] if config is not None else command
+
+
+def snakemake(workdir: Path, *args: str, config: Path | None = None, timeout: int = 900) -> subprocess.CompletedProcess:
+    """``snakemake`` on the repository's Snakefile in ``workdir`` (targets go in ``args``)."""
+    command = snakemake_command(workdir, *args, config=config)
     # its own process group, so a timeout kills the jobs it started too, not only snakemake
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                start_new_session=True)
