@@ -4,10 +4,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rgns.config import ConfigError, load_config
 from rgns.config_reference import config_reference
 from rgns.sets import set_size
+
+if TYPE_CHECKING:
+    from rgns.cbgeo.case import Case
 
 
 def _check_config(args: argparse.Namespace) -> int:
@@ -30,12 +34,25 @@ def _config_reference(args: argparse.Namespace) -> int:
     return 0
 
 
+def _trajectory_paths(cases: list[Case], out: Path) -> list[Path]:
+    """``out/<set>_<index>.h5`` per case; a CaseError naming the cases when two would share a file."""
+    from rgns.cbgeo.case import CaseError
+
+    paths = [out / f"{case.set_name}_{case.index:04d}.h5" for case in cases]
+    for path in sorted(set(paths)):
+        clashing = [case.source for case, other in zip(cases, paths) if other == path]
+        if len(clashing) > 1:
+            raise CaseError(f"{' and '.join(clashing)} would all write {path} (the same set name and index, or "
+                            "directories of the same name): run them with separate --out directories")
+    return paths
+
+
 def _mpm(args: argparse.Namespace) -> int:
     import logging
 
     import torch
 
-    from rgns.cbgeo.case import read_case, to_trajectory
+    from rgns.cbgeo.case import CaseError, read_case, to_trajectory
     from rgns.mpm.solver import EngineSettings, run_batch
     from rgns.trajectories import write_trajectory
 
@@ -43,19 +60,24 @@ def _mpm(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.threads)
     settings = EngineSettings(shape_function=args.shape, cfl=args.cfl, dt_max_s=args.dt_max, pic_blend=args.pic_blend,
                               early_stop=not args.no_early_stop, dtype=args.dtype, device=args.device)
-    cases = [read_case(directory) for directory in args.case_dirs]
-    results = run_batch(cases, settings, duration_s=args.duration)
+    try:
+        cases = [read_case(directory) for directory in args.case_dirs]
+        paths = _trajectory_paths(cases, args.out) if args.out else [None] * len(cases)
+        results = run_batch(cases, settings, duration_s=args.duration)
+    except CaseError as error:
+        print(f"rgns mpm: {error}", file=sys.stderr)
+        return 2
     particle_steps = sum(len(case.positions) for case in cases) * results[0].steps
     print(f"{len(cases)} case(s), {results[0].steps} steps, {results[0].wall_s:.2f} s wall, "
           f"{particle_steps / results[0].wall_s:.3g} particle-steps/s (counting every case at every step)")
-    for case, result in zip(cases, results):
+    for case, result, path in zip(cases, results, paths):
         stop = f", stopped at {result.stopped_at_s:.2f} s" if result.stopped_at_s is not None else ""
-        print(f"  {case.directory}: {result.status}{stop}")
+        print(f"  {case.source}: {result.status}{stop}")
         if args.out:
             trajectory = to_trajectory(case, result.positions, result.time_s, "embedded",
                                        {"engine": "embedded", "settings": vars(settings)},
                                        status=result.status, energies=result.energies)
-            write_trajectory(args.out / f"{case.meta['set_name']}_{case.meta['index']:04d}.h5", trajectory)
+            write_trajectory(path, trajectory)
     return 0 if all(result.status == "ok" for result in results) else 3
 
 
@@ -83,10 +105,14 @@ def main(argv: list[str] | None = None) -> int:
     reference.add_argument("--out", type=Path, help="file to write (default: stdout)")
     reference.set_defaults(run=_config_reference)
     mpm = commands.add_parser("mpm", help="run case directories (sharing a grid) through the embedded MPM engine")
-    mpm.add_argument("case_dirs", nargs="+", type=Path, help="CB-Geo case directories, run as one batch")
-    mpm.add_argument("--out", type=Path, help="directory for the trajectory files")
-    mpm.add_argument("--duration", type=float, help="simulated time (s); default: the case's")
-    mpm.add_argument("--shape", choices=["linear", "bspline"], default="linear")
+    mpm.add_argument("case_dirs", nargs="+", type=Path,
+                     help="CB-Geo case directories (rgns-written or plain CB-Geo), run as one batch")
+    mpm.add_argument("--out", type=Path, help="directory for the trajectory files <set>_<index>.h5 "
+                                              "(a plain CB-Geo case: <directory name>_0000.h5)")
+    mpm.add_argument("--duration", type=float,
+                     help="simulated time (s); default: the case's analysis.dt x analysis.nsteps")
+    mpm.add_argument("--shape", choices=["linear", "bspline"], default="bspline",
+                     help="shape functions: bspline (locking-free, the default) or linear (CB-Geo's ED2Q4)")
     mpm.add_argument("--cfl", type=float, default=0.2)
     mpm.add_argument("--dt-max", type=float, default=2.5e-3)
     mpm.add_argument("--pic-blend", type=float, default=0.0)

@@ -31,15 +31,14 @@ def trajectory_name(index: int) -> str:
 
 
 def _label(case: Case) -> str:
-    return f"{case.meta['set_name']} realization {case.meta['index']:04d}"
+    return f"{case.set_name} realization {case.index:04d}"
 
 
 def _diverged(case: Case, reason: str, provenance: dict[str, Any]):
     """A flagged trajectory for a run that gave no usable frames: the initial state, repeated."""
-    meta = case.meta
-    frames = int(round(meta["nsteps"] / meta["output_steps"]))
+    frames = int(round(case.duration_s / case.frame_interval_s))
     positions = np.repeat(case.positions[None].astype(np.float32), frames, axis=0)
-    return to_trajectory(case, positions, np.arange(frames) * meta["frame_interval_s"], "cbgeo", provenance,
+    return to_trajectory(case, positions, np.arange(frames) * case.frame_interval_s, "cbgeo", provenance,
                          status=f"diverged: {reason}")
 
 
@@ -51,7 +50,7 @@ def _run_embedded(cases: list[Case], out_dir: Path, settings: dict[str, Any], co
     for case, result in zip(cases, run_batch(cases, engine)):
         trajectory = to_trajectory(case, result.positions, result.time_s, "embedded", provenance,
                                    status=result.status, energies=result.energies)
-        write_trajectory(out_dir / trajectory_name(case.meta["index"]), trajectory, compression)
+        write_trajectory(out_dir / trajectory_name(case.index), trajectory, compression)
         stop = f", stopped at t = {result.stopped_at_s:.2f} s" if result.stopped_at_s is not None else ""
         (log.error if result.status != "ok" else log.info)("%s: %s%s", _label(case), result.status, stop)
         statuses.append(result.status)
@@ -64,7 +63,7 @@ def _run_cbgeo(cases: list[Case], out_dir: Path, scratch_root: Path, log_dir: Pa
     provenance = {"engine": "cbgeo", "mpm": settings}
     statuses = []
     for case in cases:
-        label, index = _label(case), case.meta["index"]
+        label, index = _label(case), case.index
         scratch = scratch_root / f"{index:04d}"
         try:
             case, raw_dir, elapsed = run_cbgeo(case.directory, scratch, log_dir / f"{index:04d}.log",

@@ -18,17 +18,14 @@ only the frames a measurement reads are kept (``keep_frames: ends``).
 from __future__ import annotations
 
 import logging
-import tempfile
 import time
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from rgns.cbgeo.case import read_case
-from rgns.cbgeo.writer import write_case
+from rgns.cbgeo.writer import case_from_scene
 from rgns.gns.rollout import RolloutSettings, rollout_soil
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
@@ -54,14 +51,10 @@ class Simulated:
 
 
 def _run_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, keep: str = "all") -> list[RunResult]:
-    """``frames`` frames of the embedded MPM engine, from case directories in a scratch folder."""
-    case_settings = {key: value for key, value in mpm.items() if key not in ("engine", "cbgeo")}
-    with tempfile.TemporaryDirectory(prefix="rgns-mc-") as scratch:
-        cases = [read_case(write_case(Path(scratch) / f"{r.index + 1:05d}", r.scene, r.friction_deg, case_settings))
-                 for r in batch]
-        duration_s = (frames - 1) * mpm["frame_interval_s"]
-        return run_batch(cases, EngineSettings.from_config(mpm["embedded"]), duration_s, mpm["frame_interval_s"],
-                         keep=keep)
+    """``frames`` frames of the embedded MPM engine, on the realizations' cases built in memory."""
+    cases = [case_from_scene(r.scene, r.friction_deg, mpm) for r in batch]
+    duration_s = (frames - 1) * mpm["frame_interval_s"]
+    return run_batch(cases, EngineSettings.from_config(mpm["embedded"]), duration_s, mpm["frame_interval_s"], keep=keep)
 
 
 def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, keep: str = "all") -> list[Simulated]:

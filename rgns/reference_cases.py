@@ -1,22 +1,24 @@
-"""Named cases for benchmarks and cross-engine checks, written through the normal pipeline."""
+"""Named cases for benchmarks and cross-engine checks, built through the normal pipeline."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 from pathlib import Path
 
-from rgns.cbgeo.case import Case, read_case
-from rgns.cbgeo.writer import write_case
+from rgns.cbgeo.case import Case
+from rgns.cbgeo.writer import case_from_scene, save_case
 from rgns.config import DEFAULT_CONFIG_PATH, load_config
 from rgns.fields import FieldGrid, friction_field
 from rgns.geometry import build_scene
 
 
-def failing_slope(directory: str | Path, friction_mean_deg: float = 20.0, index: int = 0,
+def failing_slope(directory: str | Path | None = None, friction_mean_deg: float = 20.0, index: int = 0,
                   config_path: str | Path = DEFAULT_CONFIG_PATH, **mpm_overrides) -> Case:
     """Training slope ``index`` of a config with a weak friction field (mean 20°), which fails.
 
     Geometry, field and case come from the same functions the workflow uses; ``mpm_overrides``
-    replace keys of the config's ``mpm`` section.
+    replace keys of the config's ``mpm`` section. The case is built in memory and, when
+    ``directory`` is given, also written there (for the CB-Geo binary).
     """
     config = load_config(config_path)
     group = dict(config["sets"]["train"][0], friction_mean_deg=friction_mean_deg)
@@ -29,5 +31,7 @@ def failing_slope(directory: str | Path, friction_mean_deg: float = 20.0, index:
                            tuple(config["random_field"]["friction_bounds_deg"]), scene.positions)
     settings = copy.deepcopy(config["mpm"])
     settings.update(mpm_overrides)
-    write_case(directory, scene, field.friction_deg, settings)
-    return read_case(directory)
+    case = case_from_scene(scene, field.friction_deg, settings)
+    if directory is None:
+        return case
+    return dataclasses.replace(case, directory=save_case(directory, case))

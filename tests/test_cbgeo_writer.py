@@ -1,16 +1,22 @@
 """The CB-Geo case writer, checked file by file against the facts of CB-Geo's formats."""
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
 import pytest
+import torch
 
 from rgns.cbgeo.case import read_case, read_mesh
-from rgns.cbgeo.writer import FLOOR, GENERATOR_PSET, LEFT_WALL, PAD_CELLS, RIGHT_WALL, bin_friction, write_case
-from rgns.config import ConfigError, validate_config
+from rgns.cbgeo.writer import (FLOOR, GENERATOR_PSET, LEFT_WALL, PAD_CELLS, RIGHT_WALL, bin_friction, case_from_scene,
+                               save_case, write_case)
+from rgns.config import ConfigError, load_config, validate_config
 from rgns.fields import FieldGrid, friction_field
 from rgns.geometry import build_scene, signed_area
+from rgns.mpm.solver import EngineSettings, run_batch
+from rgns.realizations import CaseInputs, draw_realization
+from conftest import TINY_CONFIG
 
 MOHR_COULOMB_KEYS = {
     "id", "type", "density", "youngs_modulus", "poisson_ratio", "friction", "dilation", "residual_friction",
@@ -131,3 +137,50 @@ def test_a_frame_interval_that_is_not_a_whole_number_of_steps_is_rejected(raw_de
     raw_default_config["mpm"] = {"dt_s": 3e-4, "frame_interval_s": 0.025}
     with pytest.raises(ConfigError, match=r"'mpm.frame_interval_s' = 0.025: not a whole number of mpm.dt_s"):
         validate_config(raw_default_config)
+
+
+def _assert_same_case(first, second):
+    for field in dataclasses.fields(first):
+        a, b = getattr(first, field.name), getattr(second, field.name)
+        if field.name == "directory":
+            continue
+        if isinstance(a, np.ndarray):
+            assert a.dtype.kind == b.dtype.kind and np.array_equal(a, b), field.name
+        elif field.name in ("node_sets", "particle_sets"):
+            assert list(a) == list(b) and all(np.array_equal(a[k], b[k]) for k in a), field.name
+        else:
+            assert a == b, field.name
+
+
+@pytest.mark.parametrize("geostatic", [True, False])
+def test_a_case_built_in_memory_is_exactly_the_case_read_back_from_its_directory(written, tmp_path, geostatic):
+    _, scene, field, config = written
+    settings = config["mpm"] | {"geostatic_stress": geostatic}
+    in_memory = case_from_scene(scene, field.friction_deg, settings)
+    assert in_memory.directory is None and in_memory.source == "train realization 0002 (in memory)"
+    read = read_case(save_case(tmp_path / "case", in_memory))
+    assert read.directory == tmp_path / "case"
+    _assert_same_case(in_memory, read)
+    assert (read.stresses is None) == (not geostatic)
+
+
+def test_duration_and_frame_interval_come_from_mpm_json_and_are_the_configs(written):
+    directory, _, _, config = written
+    case = read_case(directory)
+    assert (case.duration_s, case.frame_interval_s) == (config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])
+    assert case.dt_s == config["mpm"]["dt_s"]
+
+
+def test_a_realization_run_from_memory_and_from_its_written_directory_gives_identical_trajectories(tmp_path):
+    torch.set_num_threads(1)
+    config = load_config(TINY_CONFIG)
+    realization = draw_realization(CaseInputs.from_config(config, "case1"), 1)
+    in_memory = case_from_scene(realization.scene, realization.friction_deg, config["mpm"])
+    from_disk = read_case(write_case(tmp_path / "case", realization.scene, realization.friction_deg, config["mpm"]))
+    settings = EngineSettings(shape_function="linear")
+    first, second = (run_batch([case], settings, 0.5, config["mpm"]["frame_interval_s"])[0]
+                     for case in (in_memory, from_disk))
+    assert first.status == second.status == "ok" and first.positions.shape == (21, len(in_memory.positions), 2)
+    assert np.abs(first.positions[-1] - first.positions[0]).max() > 0.05  # it did move
+    assert np.array_equal(first.positions, second.positions)
+    assert np.array_equal(first.energies, second.energies)

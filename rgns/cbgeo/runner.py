@@ -87,4 +87,4 @@ def trajectory_from_cbgeo(case: Case, results_dir: Path, label: str, provenance:
     except OutputError as error:
         kind = MPMDiverged if "non-finite" in str(error) else MPMRunError
         raise kind(f"{label}: {error}") from error
-    return to_trajectory(case, frames.positions, (frames.steps + 1) * case.meta["dt_s"], "cbgeo", provenance)
+    return to_trajectory(case, frames.positions, (frames.steps + 1) * case.dt_s, "cbgeo", provenance)

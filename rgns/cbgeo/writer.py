@@ -1,6 +1,9 @@
-"""Write a CB-Geo MPM case directory for one realization (scene + friction field).
+"""Build the CB-Geo case of one realization (scene + friction field) and write it as a directory.
 
-The directory is the contract between the writer and both engines: the real ``mpm`` binary and
+:func:`case_from_scene` builds the case in memory (what the Monte Carlo simulates);
+:func:`save_case` writes a case as a CB-Geo case directory, its one serialization, with 17
+significant digits so that :func:`rgns.cbgeo.case.read_case` gives back the same numbers. The
+directory is the contract between the writer and both engines: the real ``mpm`` binary and
 rgns's embedded engine read the same files. Layout (names fixed here, in ``mpm.json``):
 
 * ``mesh.txt``: ED2Q4 grid over the domain plus ``PAD_CELLS`` cells of padding on every side,
@@ -22,22 +25,21 @@ from typing import Any
 
 import numpy as np
 
+from rgns.cbgeo.case import FRICTION_FILE, INPUT_JSON, META_FILE, Case
 from rgns.geometry import Scene
 from rgns.geostatic import geostatic_stresses
 
 PAD_CELLS = 1
-INPUT_JSON = "mpm.json"
 MESH_FILE = "mesh.txt"
 PARTICLES_FILE = "particles.txt"
 VOLUMES_FILE = "particles-volumes.txt"
 STRESSES_FILE = "particles-stresses.txt"
 ENTITY_SETS_FILE = "entity_sets.json"
-FRICTION_FILE = "particles-friction-deg.txt"
-META_FILE = "rgns-case.json"
 RESULTS_PATH = "results/"
 UUID = "rgns"
 LEFT_WALL, RIGHT_WALL, FLOOR = 0, 1, 2
 GENERATOR_PSET = 0
+DIGITS = "%.17g"  # enough for every float64 to read back exactly
 
 
 @dataclass(frozen=True)
@@ -179,50 +181,22 @@ def case_json(settings: dict[str, Any], bins: FrictionBins, used_bins: np.ndarra
     }
 
 
-def write_case(directory: str | Path, scene: Scene, friction_deg: np.ndarray, settings: dict[str, Any]) -> Path:
-    """Write the complete case directory of one realization; returns the directory."""
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    grid = Grid.for_domain(scene.domain_length_m, scene.domain_height_m, scene.cell_size_m)
-    nodes, cells = grid.nodes(), grid.cell_nodes()
-    with open(directory / MESH_FILE, "w") as handle:
-        handle.write(f"{len(nodes)}\t{len(cells)}\n")
-        np.savetxt(handle, nodes, fmt="%.10g", delimiter="\t")
-        np.savetxt(handle, cells, fmt="%d", delimiter="\t")
-
-    positions = scene.positions
-    with open(directory / PARTICLES_FILE, "w") as handle:
-        handle.write(f"{len(positions)}\n")
-        np.savetxt(handle, positions, fmt="%.10g", delimiter="\t")
-    np.savetxt(directory / VOLUMES_FILE, np.column_stack([np.arange(len(positions)), scene.volumes]),
-               fmt=["%d", "%.10g"], delimiter="\t")
-    np.savetxt(directory / FRICTION_FILE, friction_deg, fmt="%.8g")
-    if settings["geostatic_stress"]:
-        stresses = geostatic_stresses(scene.vertices, positions, friction_deg,
-                                      settings["density_kg_m3"], settings["gravity_m_s2"], settings["k0"])
-        with open(directory / STRESSES_FILE, "w") as handle:
-            handle.write(f"{len(positions)}\n")
-            np.savetxt(handle, stresses, fmt="%.10g", delimiter="\t")
-
-    bins = bin_friction(friction_deg, settings["friction_bins"])
-    used = np.unique(bins.particle_bin)
-    tolerance = 1e-9 * grid.cell_size_m
-    length = scene.domain_length_m  # the top is free: no node set
-    entity_sets = {
-        "node_sets": [
-            {"id": LEFT_WALL, "set": np.flatnonzero(np.abs(nodes[:, 0]) < tolerance).tolist()},
-            {"id": RIGHT_WALL, "set": np.flatnonzero(np.abs(nodes[:, 0] - length) < tolerance).tolist()},
-            {"id": FLOOR, "set": np.flatnonzero(np.abs(nodes[:, 1]) < tolerance).tolist()},
-        ],
-        "particle_sets": [
-            {"id": int(k) + 1, "set": np.flatnonzero(bins.particle_bin == k).tolist()} for k in used
-        ],
+def _node_sets(nodes: np.ndarray, length_m: float, cell_size_m: float) -> dict[int, np.ndarray]:
+    """The left and right walls and the floor (the top is free: no node set)."""
+    tolerance = 1e-9 * cell_size_m
+    return {
+        LEFT_WALL: np.flatnonzero(np.abs(nodes[:, 0]) < tolerance),
+        RIGHT_WALL: np.flatnonzero(np.abs(nodes[:, 0] - length_m) < tolerance),
+        FLOOR: np.flatnonzero(np.abs(nodes[:, 1]) < tolerance),
     }
-    (directory / ENTITY_SETS_FILE).write_text(json.dumps(entity_sets))
+
+
+def _meta(scene: Scene, settings: dict[str, Any], bins: FrictionBins) -> dict[str, Any]:
+    """``rgns-case.json``: which realization this is, its polygon and domain, its time steps."""
     nsteps, output_steps = time_steps(settings)
-    meta = {
+    return {
         "set_name": scene.set_name,
-        "index": scene.index,
+        "index": int(scene.index),
         "family": scene.family,
         "vertices": scene.vertices.tolist(),
         "domain_length_m": scene.domain_length_m,
@@ -235,7 +209,70 @@ def write_case(directory: str | Path, scene: Scene, friction_deg: np.ndarray, se
         "frame_interval_s": settings["frame_interval_s"],
         "friction_bin_width_deg": bins.width_deg,
     }
-    (directory / META_FILE).write_text(json.dumps(meta, indent=2))
+
+
+def case_from_scene(scene: Scene, friction_deg: np.ndarray, settings: dict[str, Any]) -> Case:
+    """The case of one realization, in memory: what :func:`save_case` writes and ``read_case`` reads back."""
+    grid = Grid.for_domain(scene.domain_length_m, scene.domain_height_m, scene.cell_size_m)
+    nodes = grid.nodes()
+    positions = np.asarray(scene.positions, dtype=float)
+    friction_deg = np.asarray(friction_deg, dtype=float)
+    stresses = None
+    if settings["geostatic_stress"]:
+        stresses = geostatic_stresses(scene.vertices, positions, friction_deg, settings["density_kg_m3"],
+                                      settings["gravity_m_s2"], settings["k0"])
+    bins = bin_friction(friction_deg, settings["friction_bins"])
+    used = np.unique(bins.particle_bin)
     title = f"rgns {scene.set_name} {scene.index:04d} ({scene.family})"
-    (directory / INPUT_JSON).write_text(json.dumps(case_json(settings, bins, used, title), indent=2))
+    return Case(
+        directory=None,
+        meta=_meta(scene, settings, bins),
+        config=case_json(settings, bins, used, title),
+        nodes=nodes,
+        cells=grid.cell_nodes(),
+        positions=positions,
+        volumes=np.asarray(scene.volumes, dtype=float),
+        stresses=stresses,
+        material_id=bins.particle_bin.astype(int),
+        friction_deg=friction_deg,
+        node_sets=_node_sets(nodes, scene.domain_length_m, grid.cell_size_m),
+        particle_sets={int(k) + 1: np.flatnonzero(bins.particle_bin == k) for k in used},
+    )
+
+
+def _write_counted(path: Path, header: str, *tables: tuple[np.ndarray, str]) -> None:
+    """A header line, then each table's rows, tab-separated."""
+    with open(path, "w") as handle:
+        handle.write(header + "\n")
+        for table, fmt in tables:
+            np.savetxt(handle, table, fmt=fmt, delimiter="\t")
+
+
+def save_case(directory: str | Path, case: Case) -> Path:
+    """Write ``case`` as a CB-Geo case directory (file names from its ``mpm.json``); returns the directory."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    mesh = case.config["mesh"]
+    n = len(case.positions)
+    _write_counted(directory / mesh["mesh"], f"{len(case.nodes)}\t{len(case.cells)}", (case.nodes, DIGITS),
+                   (case.cells, "%d"))
+    _write_counted(directory / case.config["particles"][0]["generator"]["location"], f"{n}", (case.positions, DIGITS))
+    np.savetxt(directory / mesh["particles_volumes"], np.column_stack([np.arange(n), case.volumes]),
+               fmt=["%d", DIGITS], delimiter="\t")
+    if case.stresses is not None:
+        _write_counted(directory / mesh["particles_stresses"], f"{n}", (case.stresses, DIGITS))
+    np.savetxt(directory / FRICTION_FILE, case.friction_deg, fmt=DIGITS)
+    entity_sets = {
+        "node_sets": [{"id": k, "set": members.tolist()} for k, members in case.node_sets.items()],
+        "particle_sets": [{"id": k, "set": members.tolist()} for k, members in case.particle_sets.items()],
+    }
+    (directory / mesh["entity_sets"]).write_text(json.dumps(entity_sets))
+    if case.meta:
+        (directory / META_FILE).write_text(json.dumps(case.meta, indent=2))
+    (directory / INPUT_JSON).write_text(json.dumps(case.config, indent=2))
     return directory
+
+
+def write_case(directory: str | Path, scene: Scene, friction_deg: np.ndarray, settings: dict[str, Any]) -> Path:
+    """Write the complete case directory of one realization; returns the directory."""
+    return save_case(directory, case_from_scene(scene, friction_deg, settings))
