@@ -176,16 +176,15 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     grid = grid_of(cases[0])
     for case in cases[1:]:
         if not np.array_equal(case.nodes, cases[0].nodes):
-            raise CaseError(f"{case.directory}: a batch needs one grid; it differs from {cases[0].directory}")
+            raise CaseError(f"{case.source}: a batch needs one grid; it differs from {cases[0].source}")
     boundary = boundary_of(cases[0], device)
     gravity_vector = cases[0].config["external_loading_conditions"]["gravity"]
     dtype = getattr(torch, settings.dtype)
     gravity = (float(gravity_vector[0]), float(gravity_vector[1]))
     damping = float(cases[0].config["analysis"].get("damping", {}).get("damping_factor", 0.0))
     g = abs(gravity[1])
-    meta = cases[0].meta
-    frame_interval_s = frame_interval_s or meta["frame_interval_s"]
-    duration_s = duration_s or meta["nsteps"] * meta["dt_s"]
+    frame_interval_s = frame_interval_s or cases[0].frame_interval_s
+    duration_s = duration_s or cases[0].duration_s
     n_frames = int(round(duration_s / frame_interval_s)) + 1
     kept = kept_frames(keep, n_frames)
     shape = SHAPE_FUNCTIONS[settings.shape_function]
