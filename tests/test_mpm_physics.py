@@ -7,8 +7,8 @@ import torch
 
 from mpm_cases import ELASTIC, polygon_case
 from rgns.mpm.mohr_coulomb import MohrCoulomb, return_map, yield_function
-from rgns.mpm.shape import SHAPE_FUNCTIONS, RegularGrid
-from rgns.mpm.solver import EngineSettings, boundary_of, grid_of, particles_of, run_batch
+from rgns.mpm.shape import BASES, RegularGrid, Region
+from rgns.mpm.solver import EngineSettings, basis_of, particles_of, run_batch
 from rgns.mpm.step import p2g
 
 G = 9.81
@@ -21,11 +21,12 @@ def one_thread():
 
 @pytest.mark.parametrize("shape", ["linear", "bspline"])
 def test_shape_functions_are_a_partition_of_unity_and_reproduce_linear_fields(shape):
-    grid = RegularGrid((-1.0, -1.0), 0.5, (20, 12))
-    points = torch.rand(2000, 2, dtype=torch.float64) * torch.tensor([8.0, 4.0]) + 0.1
-    weights = SHAPE_FUNCTIONS[shape](points[:, 0], points[:, 1], grid)
-    node_x = -1.0 + 0.5 * (weights.nodes % 21).double()
-    node_y = -1.0 + 0.5 * (weights.nodes // 21).double()
+    basis = BASES[shape](RegularGrid((-1.0, -1.0), 0.5, (20, 12)), Region((2, 2), (18, 10)))
+    points = torch.rand(2000, 2, dtype=torch.float64) * torch.tensor([8.0, 4.0])  # the whole region, to its edges
+    weights = basis(points[:, 0], points[:, 1])
+    dof_x, dof_y = basis.dof_coordinates()
+    node_x, node_y = dof_x[weights.nodes], dof_y[weights.nodes]
+    assert weights.inside.all() and (weights.value >= 0).all()
     torch.testing.assert_close(weights.value.sum(0), torch.ones(2000, dtype=torch.float64))
     torch.testing.assert_close((weights.value * node_x).sum(0), points[:, 0])
     torch.testing.assert_close((weights.grad_x * node_x).sum(0), torch.ones(2000, dtype=torch.float64))
@@ -59,9 +60,8 @@ def test_mapping_to_the_grid_conserves_mass_and_momentum_exactly(tmp_path, defau
     case = polygon_case(tmp_path / "case", [[1, 0], [6, 0], [4, 3], [1, 3]], 12.0, 5.0)
     particles = particles_of([case, case], EngineSettings(shape_function=shape), torch.device("cpu"))
     particles.vx = torch.linspace(-2.0, 3.0, len(particles.mass), dtype=torch.float64)
-    grid = grid_of(case)
-    nodal = p2g(particles, SHAPE_FUNCTIONS[shape](particles.x, particles.y, grid), grid,
-                boundary_of(case, torch.device("cpu")).repeat(2), 2)
+    basis, boundary = basis_of(case, shape, torch.device("cpu"))
+    nodal = p2g(particles, basis(particles.x, particles.y), basis.n_nodes, boundary.repeat(2), 2)
     assert nodal.mass.sum().item() == pytest.approx(particles.mass.sum().item(), rel=1e-13)
     assert (nodal.mass * nodal.vx).sum().item() == pytest.approx((particles.mass * particles.vx).sum().item(), rel=1e-12)
 
@@ -196,3 +196,52 @@ def test_keeping_only_the_ends_returns_exactly_those_frames_of_a_full_run(tmp_pa
         np.testing.assert_array_equal(b.positions, a.positions[[0, -2, -1]])
         np.testing.assert_array_equal(b.time_s, a.time_s[[0, -2, -1]])
         np.testing.assert_array_equal(b.energies, a.energies)
+
+
+@pytest.fixture(scope="module")
+def unpadded_runs(tmp_path_factory):
+    """A column collapse and a failing slope on meshes that end at the walls and the floor (as CB-Geo
+    users write them), and the same slope on the padded mesh rgns writes: B-splines, default settings."""
+    import rgns.cbgeo.writer as writer
+
+    directory = tmp_path_factory.mktemp("unpadded")
+    torch.set_num_threads(1)
+    padding = writer.PAD_CELLS
+    try:
+        writer.PAD_CELLS = 0
+        column = polygon_case(directory / "column", [[0, 0], [4, 0], [4, 8], [0, 8]], 24.0, 10.0, cell_size_m=0.5)
+        slope = polygon_case(directory / "slope", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0,
+                             index=1)
+    finally:
+        writer.PAD_CELLS = padding
+    padded = polygon_case(directory / "padded", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0,
+                          index=2)
+    assert column.nodes.min() == 0.0 and padded.nodes.min() < 0.0
+    settings = EngineSettings(shape_function="bspline")
+    return (column, slope, padded), [run_batch([case], settings, duration_s=5.0)[0] for case in (column, slope, padded)]
+
+
+def test_bsplines_run_on_a_mesh_without_padding_and_no_particle_crosses_the_floor_or_a_wall(unpadded_runs):
+    (column, slope, _), results = unpadded_runs
+    for case, result in zip((column, slope), results):
+        final = result.positions[-1]
+        length = case.nodes[:, 0].max()
+        print(f"{case.directory.name}: {result.status}, front {final[:, 0].max():.2f} m, lowest y {final[:, 1].min():.4f} m")
+        assert result.status == "ok"
+        assert (result.positions[..., 1] >= 0).all() and (result.positions[..., 0] >= 0).all()
+        assert (result.positions[..., 0] <= length).all()
+    assert (results[0].positions[-1, :, 0].max() - 4.0) / 4.0 > 1.0  # the aspect-2 column spreads over its width
+    assert results[1].positions[-1, :, 0].max() > 36.0 + 3.0  # the 40-degree face at phi 30 fails and runs out
+
+
+def test_bsplines_give_the_same_run_with_and_without_padding_beyond_the_walls(unpadded_runs):
+    _, (_, slope, padded) = unpadded_runs
+    np.testing.assert_allclose(padded.positions, slope.positions, atol=1e-9)
+
+
+def test_a_particle_pushed_out_of_the_region_is_flagged_diverged(tmp_path):
+    case = polygon_case(tmp_path / "case", [[1, 0], [5, 0], [5, 2], [1, 2]], 10.0, 3.0, cell_size_m=0.5)
+    start = np.zeros((len(case.positions), 2))
+    start[:, 1] = 200.0  # upwards, through the mesh edge (the top has no wall)
+    result = run_batch([case], EngineSettings(early_stop=False), duration_s=0.5, initial_velocity=[start])[0]
+    assert result.status.startswith("diverged: ") and "past a wall, the floor or the mesh edge" in result.status

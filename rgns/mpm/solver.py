@@ -5,7 +5,8 @@ shrunk so a whole number of steps fills each frame interval. A realization stops
 every frame for ``early_stop_duration_s``, none of its particles has moved more than
 ``early_stop_displacement_m`` over the preceding ``early_stop_duration_s`` (net displacement:
 particle kinetic energy is no test, FLIP noise keeps it up and even growing in a deposit at rest);
-one that produces a non-finite state, loses a particle off the grid, or gains more than
+one that produces a non-finite state, moves a particle past a wall, the floor or the mesh edge
+(out of the basis's region), or gains more than
 ``energy_growth_limit`` of its initial total energy is flagged as diverged. Either way it leaves
 the batch (the tensors are compacted) and its remaining frames repeat its last state, so every
 trajectory keeps the same length and the others go on. With ``keep="ends"`` only the first
@@ -24,7 +25,7 @@ import torch
 
 from rgns.cbgeo.case import Case, CaseError
 from rgns.mpm.mohr_coulomb import MohrCoulomb
-from rgns.mpm.shape import SHAPE_FUNCTIONS, RegularGrid
+from rgns.mpm.shape import BASES, Basis, RegularGrid, Region
 from rgns.mpm.step import Boundary, Particles, substep
 from rgns.trajectories import kept_frames
 
@@ -35,7 +36,7 @@ log = logging.getLogger(__name__)
 class EngineSettings:
     """Numerical settings of the embedded engine (config section ``mpm.embedded``)."""
 
-    shape_function: str = "linear"
+    shape_function: str = "bspline"
     cfl: float = 0.2
     dt_max_s: float = 2.5e-3
     pic_blend: float = 0.0
@@ -76,40 +77,85 @@ def grid_of(case: Case) -> RegularGrid:
     grid = RegularGrid((float(origin[0]), float(origin[1])), h, (len(xs) - 1, len(ys) - 1))
     expected = np.column_stack([np.tile(xs, len(ys)), np.repeat(ys, len(xs))])
     if abs(ys[1] - ys[0] - h) > 1e-9 * h or nodes.shape != expected.shape or not np.allclose(nodes, expected):
-        raise CaseError(f"{case.directory}: the embedded engine needs a regular grid of square cells numbered row by row")
+        raise CaseError(f"{case.source}: the embedded engine needs a regular grid of square cells numbered row by row")
     return grid
 
 
-def boundary_of(case: Case, device: torch.device) -> Boundary:
-    """Velocity and friction constraints of a case, extended to the padding nodes beyond each wall."""
+@dataclass(frozen=True)
+class Walls:
+    """The straight constrained lines of a case: (axis, side) → coordinate, side 0 lower, 1 upper; floor μ."""
+
+    lines: dict[tuple[int, int], float]
+    floor: tuple[float, float] | None  # (y, Coulomb μ) of the friction floor, if any
+
+
+def walls_of(case: Case) -> Walls:
+    """The zero-velocity walls and the friction floor of a case, from its node-set constraints."""
     nodes = case.nodes
     mesh = case.config["mesh"]["boundary_conditions"]
-    fixed = np.zeros((len(nodes), 2), dtype=bool)
-    friction = np.zeros(len(nodes))
-    floor = np.zeros(len(nodes), dtype=bool)
 
-    def beyond(node_set: np.ndarray, axis: int) -> np.ndarray:
-        """The wall's nodes and every node on its outer side (the padding)."""
+    def line(node_set: np.ndarray, axis: int) -> tuple[tuple[int, int], float]:
         wall = nodes[node_set, axis]
-        if np.ptp(wall) > 1e-9:
-            raise CaseError(f"{case.directory}: a constrained node set is not a straight wall along axis {axis}")
+        if len(wall) == 0 or np.ptp(wall) > 1e-9:
+            raise CaseError(f"{case.source}: a constrained node set is not a straight wall along axis {axis}")
         middle = 0.5 * (nodes[:, axis].min() + nodes[:, axis].max())
-        outside = nodes[:, axis] <= wall[0] + 1e-9 if wall[0] < middle else nodes[:, axis] >= wall[0] - 1e-9
-        return np.flatnonzero(outside)
+        return (axis, 0 if wall[0] < middle else 1), float(wall[0])
 
+    lines: dict[tuple[int, int], float] = {}
     for constraint in mesh.get("velocity_constraints", []):
         if float(constraint["velocity"]) != 0.0:
-            raise CaseError(f"{case.directory}: only zero velocity constraints are supported")
-        axis = int(constraint["dir"])
-        fixed[beyond(case.node_sets[int(constraint["nset_id"])], axis), axis] = True
+            raise CaseError(f"{case.source}: only zero velocity constraints are supported")
+        key, value = line(case.node_sets[int(constraint["nset_id"])], int(constraint["dir"]))
+        lines[key] = value
+    floor = None
     for constraint in mesh.get("friction_constraints", []):
         if int(constraint["dir"]) != 1 or int(constraint["sign_n"]) != -1:
-            raise CaseError(f"{case.directory}: only floor friction (dir 1, sign_n -1) is supported")
-        members = beyond(case.node_sets[int(constraint["nset_id"])], 1)
-        floor[members] = True
-        friction[members] = float(constraint["friction"])
-    return Boundary(torch.as_tensor(fixed[:, 0], device=device), torch.as_tensor(fixed[:, 1], device=device),
+            raise CaseError(f"{case.source}: only floor friction (dir 1, sign_n -1) is supported")
+        key, value = line(case.node_sets[int(constraint["nset_id"])], 1)
+        if key != (1, 0):
+            raise CaseError(f"{case.source}: floor friction is supported on the bottom of the mesh only")
+        floor = (value, float(constraint["friction"]))
+    return Walls(lines, floor)
+
+
+def region_of(grid: RegularGrid, walls: Walls) -> Region:
+    """The cells between the walls and above the floor; the mesh edge where there is no wall."""
+    lower, upper = list((0, 0)), list(grid.cells)
+    for (axis, side), value in walls.lines.items():
+        cell = int(round((value - grid.origin[axis]) / grid.h))
+        if side == 0:
+            lower[axis] = cell
+        else:
+            upper[axis] = cell
+    return Region(tuple(lower), tuple(upper))
+
+
+def boundary_of(walls: Walls, basis: Basis, device: torch.device) -> Boundary:
+    """Velocity and friction constraints of every DOF at or beyond a wall (padding nodes included)."""
+    x, y = basis.dof_coordinates()
+    coordinate = (x.numpy(), y.numpy())
+    tolerance = 1e-9 * basis.grid.h
+    fixed = [np.zeros(basis.n_nodes, dtype=bool), np.zeros(basis.n_nodes, dtype=bool)]
+    for (axis, side), value in walls.lines.items():
+        fixed[axis] |= coordinate[axis] <= value + tolerance if side == 0 else coordinate[axis] >= value - tolerance
+    floor = np.zeros(basis.n_nodes, dtype=bool)
+    friction = np.zeros(basis.n_nodes)
+    if walls.floor is not None:
+        floor = coordinate[1] <= walls.floor[0] + tolerance
+        friction[floor] = walls.floor[1]
+    return Boundary(torch.as_tensor(fixed[0], device=device), torch.as_tensor(fixed[1], device=device),
                     torch.as_tensor(floor, device=device), torch.as_tensor(friction, device=device))
+
+
+def basis_of(case: Case, shape_function: str, device: torch.device) -> tuple[Basis, Boundary]:
+    """The shape functions of a case (on the region between its walls) and their constraints."""
+    grid = grid_of(case)
+    walls = walls_of(case)
+    try:
+        basis = BASES[shape_function](grid, region_of(grid, walls))
+    except ValueError as error:
+        raise CaseError(f"{case.source}: {error}") from error
+    return basis, boundary_of(walls, basis, device)
 
 
 def particles_of(cases: list[Case], settings: EngineSettings, device: torch.device) -> Particles:
@@ -173,11 +219,11 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     """
     start_wall = time.perf_counter()
     device = torch.device(settings.device)
-    grid = grid_of(cases[0])
+    basis, boundary = basis_of(cases[0], settings.shape_function, device)
+    grid = basis.grid
     for case in cases[1:]:
         if not np.array_equal(case.nodes, cases[0].nodes):
             raise CaseError(f"{case.source}: a batch needs one grid; it differs from {cases[0].source}")
-    boundary = boundary_of(cases[0], device)
     gravity_vector = cases[0].config["external_loading_conditions"]["gravity"]
     dtype = getattr(torch, settings.dtype)
     gravity = (float(gravity_vector[0]), float(gravity_vector[1]))
@@ -187,7 +233,6 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     duration_s = duration_s or cases[0].duration_s
     n_frames = int(round(duration_s / frame_interval_s)) + 1
     kept = kept_frames(keep, n_frames)
-    shape = SHAPE_FUNCTIONS[settings.shape_function]
 
     particles = particles_of(cases, settings, device)
     if initial_velocity is not None:
@@ -216,10 +261,10 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
         left_grid = torch.zeros(len(live), dtype=torch.long, device=device)
         repeated = boundary.repeat(len(live))
         for _ in range(substeps):
-            weights = shape(particles.x, particles.y, grid)
+            weights = basis(particles.x, particles.y)
             if not bool(weights.inside.all()):
                 left_grid.index_add_(0, particles.batch, (~weights.inside).long())
-            substep(particles, weights, grid, repeated, gravity, len(live), dt, settings.pic_blend, damping)
+            substep(particles, weights, basis.n_nodes, repeated, gravity, len(live), dt, settings.pic_blend, damping)
         steps += substeps
         now = frame * frame_interval_s
         energy = energies(particles, g, len(live))
@@ -242,7 +287,8 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
             if finite[slot] > 0 or not np.isfinite(energy_np[slot]).all():
                 reason = f"non-finite particle state at t = {now:.3f} s"
             elif left_grid[slot] > 0:
-                reason = f"{int(left_grid[slot])} particle step(s) outside the grid by t = {now:.3f} s"
+                reason = (f"{int(left_grid[slot])} particle step(s) past a wall, the floor or the mesh edge "
+                          f"by t = {now:.3f} s")
             elif energy_np[slot].sum() > float(initial_total[case_index]) * (1 + settings.energy_growth_limit):
                 growth = energy_np[slot].sum() / float(initial_total[case_index]) - 1
                 reason = f"total energy grew {growth:.1%} by t = {now:.3f} s (limit {settings.energy_growth_limit:.0%})"

@@ -20,7 +20,7 @@ from dataclasses import dataclass, fields
 import torch
 
 from rgns.mpm.mohr_coulomb import MohrCoulomb, elastic_increment, return_map
-from rgns.mpm.shape import RegularGrid, Weights
+from rgns.mpm.shape import Weights
 
 MASS_TOLERANCE = 1e-15  # as CB-Geo: nodes lighter than this carry no velocity
 
@@ -82,10 +82,10 @@ def _gather(nodal: torch.Tensor, flat: torch.Tensor) -> torch.Tensor:
     return torch.take(nodal, flat)
 
 
-def p2g(particles: Particles, weights: Weights, grid: RegularGrid, boundary: Boundary, batches: int) -> Nodal:
-    """Nodal mass and velocity (momentum / mass) with the velocity constraints applied."""
-    size = batches * grid.n_nodes
-    flat = particles.batch * grid.n_nodes + weights.nodes
+def p2g(particles: Particles, weights: Weights, n_nodes: int, boundary: Boundary, batches: int) -> Nodal:
+    """Nodal mass and velocity (momentum / mass) of ``n_nodes`` DOFs per realization, constraints applied."""
+    size = batches * n_nodes
+    flat = particles.batch * n_nodes + weights.nodes
     weighted_mass = weights.value * particles.mass
     mass = _scatter(flat, weighted_mass, size)
     active = mass > MASS_TOLERANCE
@@ -154,10 +154,10 @@ def g2p(particles: Particles, weights: Weights, nodal: Nodal, nodal_update: tupl
     particles.x, particles.y = particles.x + dt * pic_x, particles.y + dt * pic_y
 
 
-def substep(particles: Particles, weights: Weights, grid: RegularGrid, boundary: Boundary,
+def substep(particles: Particles, weights: Weights, n_nodes: int, boundary: Boundary,
             gravity: tuple[float, float], batches: int, dt: float, pic_blend: float, damping: float = 0.0) -> torch.Tensor:
     """Advance every realization by ``dt`` (``boundary`` already repeated per batch); returns yielding."""
-    nodal = p2g(particles, weights, grid, boundary, batches)
+    nodal = p2g(particles, weights, n_nodes, boundary, batches)
     yielded = stress_update(particles, weights, nodal, dt)
     update = grid_update(particles, weights, nodal, gravity, boundary, dt, damping)
     g2p(particles, weights, nodal, update, dt, pic_blend)
