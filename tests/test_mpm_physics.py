@@ -245,3 +245,17 @@ def test_a_particle_pushed_out_of_the_region_is_flagged_diverged(tmp_path):
     start[:, 1] = 200.0  # upwards, through the mesh edge (the top has no wall)
     result = run_batch([case], EngineSettings(early_stop=False), duration_s=0.5, initial_velocity=[start])[0]
     assert result.status.startswith("diverged: ") and "past a wall, the floor or the mesh edge" in result.status
+
+
+def test_a_slope_limit_equilibrium_says_must_fail_fails_at_one_metre_cells_with_bsplines_not_with_bilinear(tmp_path):
+    """Volumetric locking: the 39.8-degree long slope at phi 34 (infinite-slope FS = tan 34 / tan 39.8 = 0.81)
+    stands on the bilinear 1 m mesh with 2 x 2 points per cell, and runs out with the default B-splines."""
+    case = polygon_case(tmp_path / "slope", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0,
+                        friction_deg=34.0)
+    fronts = {}
+    for shape in ("linear", "bspline"):
+        result = run_batch([case], EngineSettings(shape_function=shape), duration_s=6.0)[0]
+        assert result.status == "ok"
+        fronts[shape] = result.positions[-1, :, 0].max() - case.positions[:, 0].max()
+    print(f"front advance at phi 34, 1 m cells: {fronts}")
+    assert fronts["linear"] < 0.25 and fronts["bspline"] > 2.0
