@@ -7,7 +7,9 @@ directory is the contract between the writer and both engines: the real ``mpm`` 
 rgns's embedded engine read the same files. Layout (names fixed here, in ``mpm.json``):
 
 * ``mesh.txt``: ED2Q4 grid over the domain plus ``PAD_CELLS`` cells of padding on every side,
-  so a particle that slips a little past a wall or the floor is still inside the mesh.
+  for CB-Geo, which aborts on a particle outside its mesh. The embedded engine works on the
+  region between the walls and above the floor and flags any particle that leaves it, with or
+  without padding.
 * ``particles.txt``, ``particles-volumes.txt``, ``particles-stresses.txt`` (geostatic, optional).
 * ``entity_sets.json``: node sets 0 left wall, 1 right wall, 2 floor; particle sets 1..K, one
   per friction bin (the generator's set is 0, so no id collides).
