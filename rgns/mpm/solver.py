@@ -120,7 +120,7 @@ def walls_of(case: Case) -> Walls:
 
 def region_of(grid: RegularGrid, walls: Walls) -> Region:
     """The cells between the walls and above the floor; the mesh edge where there is no wall."""
-    lower, upper = list((0, 0)), list(grid.cells)
+    lower, upper = [0, 0], list(grid.cells)
     for (axis, side), value in walls.lines.items():
         cell = int(round((value - grid.origin[axis]) / grid.h))
         if side == 0:
@@ -258,12 +258,12 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
         dt_cfl = settings.cfl * grid.h / (wave_speed + speed)
         substeps = max(1, math.ceil(frame_interval_s / min(dt_cfl, settings.dt_max_s) - 1e-9))
         dt = frame_interval_s / substeps
-        left_grid = torch.zeros(len(live), dtype=torch.long, device=device)
+        outside_region = torch.zeros(len(live), dtype=torch.long, device=device)
         repeated = boundary.repeat(len(live))
         for _ in range(substeps):
             weights = basis(particles.x, particles.y)
             if not bool(weights.inside.all()):
-                left_grid.index_add_(0, particles.batch, (~weights.inside).long())
+                outside_region.index_add_(0, particles.batch, (~weights.inside).long())
             substep(particles, weights, basis.n_nodes, repeated, gravity, len(live), dt, settings.pic_blend, damping)
         steps += substeps
         now = frame * frame_interval_s
@@ -286,8 +286,8 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
             reason = None
             if finite[slot] > 0 or not np.isfinite(energy_np[slot]).all():
                 reason = f"non-finite particle state at t = {now:.3f} s"
-            elif left_grid[slot] > 0:
-                reason = (f"{int(left_grid[slot])} particle step(s) past a wall, the floor or the mesh edge "
+            elif outside_region[slot] > 0:
+                reason = (f"{int(outside_region[slot])} particle step(s) past a wall, the floor or the mesh edge "
                           f"by t = {now:.3f} s")
             elif energy_np[slot].sum() > float(initial_total[case_index]) * (1 + settings.energy_growth_limit):
                 growth = energy_np[slot].sum() / float(initial_total[case_index]) - 1
