@@ -47,10 +47,18 @@ rule dataset:
         "results/dataset/gns/metadata.json",
 
 
-rule hazard_map:
-    """The whole chain: geometry, fields, MPM, dataset, GNS, validation, Monte Carlo, hazard report."""
+rule pretrain:
+    """The training sets' MPM runs and the GNS trained on them (config/pretrain.yaml makes the shipped model)."""
     input:
-        rules.dataset.input,
+        "results/model/gns.pt",
+        "results/model/card.md",
+
+
+rule hazard_map:
+    """The whole chain: geometry, fields, MPM of the sets it needs (the test cases; the training sets too
+    unless gns.model is shipped), GNS, validation gate, Monte Carlo, hazard report."""
+    input:
+        expand("results/dataset/{set}.h5", set=RUN_SETS),
         "results/report/report.html",
 
 

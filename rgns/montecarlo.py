@@ -107,7 +107,7 @@ def measure(realization: Realization, simulated: Simulated, metrics: MetricSetti
 
 COLUMNS = ["index", "status", "n_particles", "friction_mean_deg", "factor_of_safety", "runout_m", "volume_m2",
            "influence_m", "displaced_fraction", "toe_x_m", "crest_x_m", "front_x_m", "rear_x_m", "potential_final",
-           "kinetic_final", "dissipated_final"]
+           "kinetic_final", "dissipated_final", "simulator"]
 
 
 def collect_chunks(paths: list[str], realizations: int, chunk_size: int) -> pd.DataFrame:
@@ -186,7 +186,7 @@ def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettin
             result = simulated[realization.index]
             rows.append(measure(realization, result, settings.metrics, settings.mpm["density_kg_m3"],
                                 settings.frame_interval_s, settings.mpm["gravity_m_s2"])
-                        | {"factor_of_safety": safety[realization.index]})
+                        | {"factor_of_safety": safety[realization.index], "simulator": settings.simulator})
             if result.status not in FINISHED:
                 log.error("%s realization %d: %s", inputs.case, realization.index, result.status)
         elapsed = time.perf_counter() - started

@@ -49,21 +49,30 @@ def plot_scenes(scenes: list[Scene], fields: list[FrictionField], path: str | Pa
 
 
 def plot_learning_curve(history_csv: str | Path, path: str | Path) -> None:
-    """Training loss, validation one-step loss and validation rollout error against step."""
+    """Training loss, validation one-step loss beside the mean predictor's on the same windows,
+    and the held-out rollout errors of R against step (the model kept is marked)."""
     import pandas as pd
 
     history = pd.read_csv(history_csv)
     figure, (loss_axis, error_axis) = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
-    loss_axis.semilogy(history["step"], history["train_loss"], label="training (noisy one-step)")
+    loss_axis.semilogy(history["step"], history["train_loss"], label="training (noisy one-step)", alpha=0.6)
     if "valid_one_step_loss" in history:
         valid = history.dropna(subset=["valid_one_step_loss"])
         loss_axis.semilogy(valid["step"], valid["valid_one_step_loss"], "o-", label="validation one-step")
-        error_axis.plot(valid["step"], valid["valid_rollout_error_m"], "o-", color="C2")
+        if "valid_mean_predictor_loss" in valid:
+            loss_axis.semilogy(valid["step"], valid["valid_mean_predictor_loss"], "k--",
+                               label="mean predictor, same windows")
+        if "valid_runout_error_m" in valid:
+            error_axis.plot(valid["step"], valid["valid_runout_error_m"], "o-", color="C2")
+            best = valid.loc[valid["valid_rollout_score"].idxmin()]
+            error_axis.plot([best["step"]], [best["valid_runout_error_m"]], "*", color="C3", markersize=14,
+                            label=f"kept: step {int(best['step'])}")
+            error_axis.legend()
     loss_axis.set_xlabel("step")
     loss_axis.set_ylabel("MSE of normalised acceleration")
     loss_axis.legend()
     error_axis.set_xlabel("step")
-    error_axis.set_ylabel("validation rollout position error (m)")
+    error_axis.set_ylabel("held-out rollouts: mean |R error| (m)")
     figure.savefig(path, dpi=110)
     plt.close(figure)
 

@@ -93,15 +93,37 @@ def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
                figure(files["zoning.png"], caption("zoning", case=case)))
 
 
+def gate_section(report: Report, gate: dict[str, dict[str, Any]], cases: list[str],
+                 validation_table: pd.DataFrame) -> None:
+    """The validation gate's verdict for every Monte Carlo case and the table it was based on, first."""
+    lines = []
+    for case in cases:
+        verdict = gate.get(case)
+        if verdict is None:
+            lines.append(paragraph(f"{case}: the Monte Carlo ran MPM as configured; no surrogate was used."))
+        elif verdict["passed"]:
+            lines.append(paragraph(f"{case}: the GNS passed the validation gate against fresh MPM runs of this "
+                                   "case; the Monte Carlo below is drawn from it."))
+        else:
+            then = ("the Monte Carlo below was run by MPM instead (on_failure: fallback), so it does not rest "
+                    "on the GNS" if verdict["simulator"] == "mpm" else "the Monte Carlo was stopped")
+            lines.append(paragraph(f"{case}: the GNS FAILED the validation gate ({'; '.join(verdict['failures'])}); "
+                                   f"{then}.", note=True))
+    report.add("Validation gate", *lines, table(validation_table))
+
+
 def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], learning_curve: Path,
                  evaluation: dict[str, Any], validation_table: pd.DataFrame, validation_summary: list[dict],
-                 validation_figures: dict[str, Path], hazard: dict[str, dict[str, Path]]) -> str:
-    """The whole page."""
+                 validation_figures: dict[str, Path], hazard: dict[str, dict[str, Path]],
+                 gate: dict[str, dict[str, Any]] | None = None) -> str:
+    """The whole page: the validation gate's verdict first, then configuration, model, validation, hazard."""
     report = Report(title)
+    gate_section(report, gate or {}, list(hazard), validation_table)
     report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>")
     report.add("Scenes", *(figure(path, caption("scenes", set=name)) for name, path in scenes.items()))
+    origin = ("the model shipped with rgns (card: rgns/models/card.md), " if evaluation.get("shipped") else "")
     report.add("Graph network simulator",
-               paragraph(f"{evaluation.get('steps', '?')} training steps; validation one-step position error "
+               paragraph(f"{origin}{evaluation.get('steps', '?')} training steps; validation one-step position error "
                          f"{evaluation['one_step_error_m']:.3g} m, full-rollout mean position error "
                          f"{evaluation['rollout_mean_error_m']:.3g} m over {evaluation['frames']} frames."),
                figure(learning_curve, caption("learning_curve")))

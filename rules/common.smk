@@ -108,6 +108,8 @@ def chunk_of(wildcards):
 # Test cases, Monte Carlo and hazard: every set other than train/valid is a test case.
 TEST_CASES = [name for name in SETS if name not in ("train", "valid")]
 MC_CASES = list(config["montecarlo"]["cases"])
+# the sets a run simulates: with the shipped model no training set is run
+RUN_SETS = TEST_CASES if config["gns"]["model"] == "shipped" else SETS
 
 
 wildcard_constraints:
@@ -146,6 +148,12 @@ def mc_run_params(wildcards):
 def mc_model(wildcards):
     """The trained GNS, when it is the Monte Carlo simulator."""
     return ["results/model/gns.pt"] if config["montecarlo"]["simulator"] == "gns" else []
+
+
+def mc_gate(wildcards):
+    """The validation gate's verdicts, when the GNS is the Monte Carlo simulator: a case it fails
+    runs MPM (or stops), by validation.acceptance.on_failure."""
+    return ["results/report/validation/gate.json"] if config["montecarlo"]["simulator"] == "gns" else []
 
 
 def mc_chunks(wildcards):

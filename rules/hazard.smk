@@ -41,11 +41,12 @@ rule zoning:
 rule report:
     """One self-contained HTML page with every figure, table and caption."""
     input:
-        scenes=expand("results/plots/{set}/scenes.png", set=SETS),
+        scenes=expand("results/plots/{set}/scenes.png", set=RUN_SETS),
         curve="results/model/learning_curve.png",
         evaluation="results/model/evaluation.json",
         validation_table="results/report/validation/table.csv",
         validation_summary="results/report/validation/summary.json",
+        gate=mc_gate,
         validation_figures=["results/report/validation/histograms.png", "results/report/validation/parity.png"]
         + expand("results/report/validation/energy_{case}.png", case=TEST_CASES),
         hazard=expand("results/report/{case}/{name}", case=MC_CASES,
@@ -55,7 +56,7 @@ rule report:
         "results/report/report.html",
     params:
         cases=MC_CASES,
-        sets=SETS,
+        sets=RUN_SETS,
         config_summary=lambda wildcards: {key: config[key] for key in ("seed", "domain", "mesh", "montecarlo", "hazard", "metrics")},
     log:
         "logs/report/report.log",

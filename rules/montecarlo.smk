@@ -2,6 +2,7 @@ rule mc_chunk:
     """Draw, simulate (montecarlo.simulator) and measure one chunk of a case's Monte Carlo realizations."""
     input:
         model=mc_model,
+        gate=mc_gate,
     output:
         "results/mc/{case}/chunk_{chunk}.csv",
     params:
@@ -24,6 +25,7 @@ rule mc_mean_field:
     """The deterministic mean-field realization of a case (mean geometry, uniform mean friction)."""
     input:
         model=mc_model,
+        gate=mc_gate,
     output:
         "results/mc/{case}/mean_field.csv",
     params:

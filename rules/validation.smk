@@ -26,7 +26,8 @@ rule validation_rollout:
 
 
 rule validate:
-    """GNS against MPM over all test cases: the Table-3 agreement table, histograms, parity, energies."""
+    """GNS against MPM over all test cases: the Table-3 agreement table, histograms, parity, energies,
+    and the gate's verdict per case (validation.acceptance) that the Monte Carlo obeys."""
     input:
         pairs=expand("results/validation/{case}/pairs.csv", case=TEST_CASES),
         energies=expand("results/validation/{case}/energies.npz", case=TEST_CASES),
@@ -34,12 +35,14 @@ rule validate:
         table="results/report/validation/table.csv",
         markdown="results/report/validation/table.md",
         summary="results/report/validation/summary.json",
+        gate="results/report/validation/gate.json",
         histograms=report("results/report/validation/histograms.png", caption="../docs/captions/histograms.rst", category="Validation"),
         parity=report("results/report/validation/parity.png", caption="../docs/captions/parity.rst", category="Validation"),
         energy=report(expand("results/report/validation/energy_{case}.png", case=TEST_CASES), caption="../docs/captions/energy.rst", category="Validation"),
     params:
         cases=TEST_CASES,
         validation=config["validation"],
+        cell_size_m=config["mesh"]["cell_size_m"],
     log:
         "logs/validate/validate.log",
     conda:

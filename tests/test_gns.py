@@ -119,8 +119,8 @@ def tiny_dataset(tmp_path_factory):
 def trained_small(tiny_dataset, tmp_path_factory):
     """The small model trained 800 steps on the sliding blocks, and its training summary."""
     directory = tmp_path_factory.mktemp("trained")
-    settings = TrainSettings(steps=800, batch_graphs=2, learning_rate=3e-3, noise_std=0.0, log_every=25,
-                             validate_every=800, checkpoint_every=800, validation_rollout_frames=10)
+    settings = TrainSettings(steps=800, batch_graphs=2, learning_rate=3e-3, noise_std=0.0, smoothing_frames=0.0, log_every=25,
+                             validate_every=800, checkpoint_every=800, selection_trajectories=1)
     torch.set_num_threads(1)
     return directory, train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], directory)
 
@@ -224,7 +224,7 @@ from rgns.gns.simulator import ModelSettings
 from rgns.gns.train import TrainSettings, train
 model = ModelSettings(**{SMALL.__dict__!r})
 settings = TrainSettings(steps=int(sys.argv[1]), batch_graphs=1, log_every=10, validate_every=10_000,
-                         checkpoint_every=20, validation_rollout_frames=5)
+                         checkpoint_every=20, selection_trajectories=1)
 train(model, settings, {tiny_dataset['train']!r}, {tiny_dataset['valid']!r}, {str(tmp_path)!r})
 """
     first = subprocess.Popen([sys.executable, "-c", script, "100000"], stdout=subprocess.PIPE, text=True)
@@ -305,7 +305,7 @@ def test_rest_skipping_a_realization_entirely_at_rest_keeps_it_still(tiny_datase
 
 def test_a_checkpoint_from_other_settings_is_set_aside_not_resumed(tiny_dataset, tmp_path):
     quick = TrainSettings(steps=20, batch_graphs=1, log_every=10, validate_every=10_000, checkpoint_every=10,
-                          validation_rollout_frames=5)
+                          selection_trajectories=1)
     train(SMALL, quick, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
     assert train(SMALL, replace(quick, steps=30), tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["resumed_from"] == 20
     changed = replace(quick, learning_rate=5e-4, steps=30)
@@ -337,7 +337,7 @@ def test_pushforward_trains_on_the_model_s_own_prediction(tiny_dataset, tmp_path
     torch.testing.assert_close(graph.positions[:, :-1], window.graph.positions[:, 1:])
     torch.testing.assert_close(target, window.targets[:, -1])
     settings = TrainSettings(steps=30, batch_graphs=2, pushforward_steps=1, log_every=10, validate_every=10_000,
-                             checkpoint_every=30, validation_rollout_frames=5)
+                             checkpoint_every=30, selection_trajectories=1)
     assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 30
 
 
@@ -362,3 +362,38 @@ def test_keeping_only_the_ends_returns_exactly_those_frames_of_the_full_rollout(
         assert ends[2].status.startswith("diverged") and (ends[1].stopped_at_frame is not None) == early_stop
     with pytest.raises(ValueError, match="keep = 'some'"):
         RolloutSettings(keep="some")
+
+
+def _stopped_trajectory(index: int, moving: int = 25, frames: int = 60) -> Trajectory:
+    """A sliding block that an early stop ended at frame ``moving``: the rest are copies of it."""
+    full = _sliding_trajectory(index, frames)
+    full.positions[moving:] = full.positions[moving - 1]
+    return full
+
+
+def test_padded_frames_of_an_early_stop_are_never_drawn_and_smoothing_needs_no_whole_trajectory(tmp_path):
+    paths = []
+    for index, moving in ((0, 25), (1, 60)):
+        paths.append(tmp_path / f"t{index}.h5")
+        write_trajectory(paths[-1], _stopped_trajectory(index, moving))
+    pack(paths, tmp_path / "set.h5", "train")
+    sampler = WindowSampler(str(tmp_path / "set.h5"), history=3, smoothing_frames=2.0)
+    assert sampler.real == [25, 60]
+    # trajectory 0: starts 0..(25 - 5); trajectory 1 ran to the end: the last 8 frames (4 σ) are left out
+    assert sampler.starts.tolist() == [21, 60 - 8 - 5 + 1]
+    picks = sampler.draw(np.random.default_rng(0), 5000)
+    assert max(start for trajectory, start in picks if trajectory == 0) == 20
+    assert {trajectory for trajectory, _ in picks} == {0, 1}
+    # a window smoothed from a margin of frames equals the same frames of the whole trajectory smoothed
+    from scipy.ndimage import gaussian_filter1d
+    whole = gaussian_filter1d(sampler.frames_of(1, 0, 60), 2.0, axis=0, mode="nearest")
+    np.testing.assert_allclose(sampler.smoothed_frames_of(1, 20, 5), whole[20:25], atol=1e-6)
+
+
+def test_the_training_noise_is_folded_into_the_normalisation(tiny_dataset):
+    sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
+    clean, noisy = sampler.normalization(0.0), sampler.normalization(3e-3)
+    for key in ("velocity_std", "acceleration_std"):
+        np.testing.assert_allclose(np.square(getattr(noisy, key)), np.square(getattr(clean, key)) + 3e-3 ** 2,
+                                   rtol=1e-6)
+    assert noisy.velocity_mean == clean.velocity_mean

@@ -21,20 +21,32 @@ from workflow_helpers import scheduled, snakemake, write_config
 pytestmark = pytest.mark.workflow
 
 
-def test_dry_run_of_the_default_config_prints_the_dag(tmp_path):
+def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped_model(tmp_path):
+    """gns.model shipped (the default): no training-set MPM run and no training is scheduled."""
     jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map"))
     config = load_config(REPO / "config" / "config.yaml")
-    sizes = [sum(group["count"] for group in groups) for groups in config["sets"].values()]
+    assert config["gns"]["model"] == "shipped"
+    cases = {name: groups for name, groups in config["sets"].items() if name not in ("train", "valid")}
+    sizes = [sum(group["count"] for group in groups) for groups in cases.values()]
     chunks = sum(-(-size // config["mpm"]["chunk_size"]) for size in sizes)
-    test_cases = len(sizes) - 2
     montecarlo = config["montecarlo"]
     mc_cases = len(montecarlo["cases"])
     assert jobs == {"geometry": sum(sizes), "random_field": sum(sizes), "mpm_input": sum(sizes), "mpm_run": chunks,
-                    "pack": len(sizes), "gns_export": 1, "scene_preview": len(sizes), "train": 1,
-                    "validation_rollout": test_cases, "validate": 1,
+                    "pack": len(sizes), "scene_preview": len(sizes), "shipped_model": 1,
+                    "validation_rollout": len(cases), "validate": 1,
                     "mc_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
                     "mc_mean_field": mc_cases, "mc_collect": mc_cases, "exceedance": mc_cases, "zoning": mc_cases,
                     "report": 1, "hazard_map": 1}
+    assert min(sizes) >= 16  # enough realizations per test case for R² to mean something
+
+
+def test_training_from_scratch_schedules_the_training_sets_and_the_training(tmp_path):
+    config = load_config(REPO / "config" / "config.yaml")
+    config["gns"]["model"] = "train"
+    jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", config)))
+    sizes = [sum(group["count"] for group in groups) for groups in config["sets"].values()]
+    assert jobs["train"] == 1 and "shipped_model" not in jobs
+    assert jobs["geometry"] == sum(sizes) and jobs["pack"] == len(sizes)
 
 
 def test_a_bad_config_stops_before_any_job_runs_naming_key_and_value(tmp_path):
@@ -180,4 +192,37 @@ def test_jobs_ask_their_scheduler_for_a_gpu_exactly_when_their_device_is_cuda(tm
     paper = gpu_requests(REPO / "config" / "paper.yaml")
     assert paper["train"] == paper["mc_chunk"] == {"1"} and paper["mpm_run"] == {"none"}
     default = gpu_requests(REPO / "config" / "config.yaml")
-    assert default["train"] == default["mc_chunk"] == {"0"}
+    assert default["mc_chunk"] == {"0"} and "train" not in default  # the shipped model: nothing to train
+
+
+def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_path):
+    """The tiny 400-step model against an R² of 0.99: by default the Monte Carlo runs MPM on the same
+    realizations and the report says so at its top; with on_failure stop the chunks fail naming the
+    case and metric, and nothing already computed is lost."""
+    workdir, config = built
+    copy_dir = tmp_path / "strict"
+    shutil.copytree(workdir, copy_dir)
+    strict = copy.deepcopy(config)
+    strict["validation"]["acceptance"] = {"metrics": {"runout": {"r2_min": 0.99, "relative_bias_max": 0.001}}}
+    path = write_config(tmp_path / "strict.yaml", strict)
+    result = snakemake(copy_dir, "--cores", "2", "hazard_map", config=path)
+    assert result.returncode == 0, result.stderr
+    gate = json.loads((copy_dir / "results" / "report" / "validation" / "gate.json").read_text())
+    assert not gate["case1"]["passed"] and gate["case1"]["simulator"] == "mpm"
+    table = read_csv(copy_dir / "results" / "mc" / "case1" / "realizations.csv")
+    assert (table["simulator"] == "mpm").all()
+    mpm = read_csv(copy_dir / "results" / "validation" / "case1" / "pairs.csv")
+    for _, pair in mpm.iterrows():  # realization i of the Monte Carlo is realization i the MPM ran
+        row = table[table["index"] == pair["index"]].iloc[0]
+        assert row["runout_m"] == pytest.approx(pair["runout_m_mpm"], abs=0.05)
+    page = (copy_dir / "results" / "report" / "report.html").read_text()
+    top = page.split("<h2>")[1]
+    assert top.startswith("Validation gate") and "FAILED the validation gate" in top and "run by MPM" in top
+
+    strict["validation"]["acceptance"]["on_failure"] = "stop"
+    for chunk in (copy_dir / "results" / "mc" / "case1").glob("chunk_*.csv"):
+        chunk.unlink()
+    result = snakemake(copy_dir, "--cores", "2", "hazard_map", config=write_config(tmp_path / "stop.yaml", strict))
+    assert result.returncode != 0
+    assert "case1: the GNS failed the validation gate (runout R²" in result.stdout + result.stderr
+    assert (copy_dir / "results" / "validation" / "case1" / "pairs.csv").exists()

@@ -15,8 +15,10 @@ Options, each switchable so their effect on error can be measured:
   and the last two, for R, V, I and the final kinetic energy), which spares copying every frame
   off the device and holding [T, N, 2] per realization.
 
-A realization with a non-finite position or a particle more than ``domain_margin_m`` outside the
-domain is flagged ``diverged`` and stopped; the others go on.
+The walls and the floor are rigid: a particle the network moves past one is put back on it (and
+counted in ``pushed_back``). A realization with a non-finite position, or a particle moved more than
+``domain_margin_m`` past the domain in one frame, is flagged ``diverged`` and stopped; the others go
+on.
 """
 from __future__ import annotations
 
@@ -53,6 +55,7 @@ class RolloutResult:
     status: str = "ok"
     stopped_at_frame: int | None = None
     node_updates: int = 0  # particles the network was evaluated on, summed over frames
+    pushed_back: int = 0  # particle steps the network moved past a wall or the floor, put back on it
 
 
 def _subgraph(senders: torch.Tensor, receivers: torch.Tensor, keep: torch.Tensor):
@@ -106,16 +109,24 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
         graph = GraphInput(history[ids], types[ids], friction[ids], batch[ids], n_graphs)
         new = history[:, -1].clone()
         predicted = simulator.next_positions(graph, (sub_senders, sub_receivers))
+        # the walls and the floor are rigid: a particle the network moves past one stays on it
+        inside = torch.maximum(torch.minimum(predicted, bounds[:, 1]), bounds[:, 0])
+        pushed_back = (inside != predicted).any(1)
+        far = ~torch.isfinite(predicted).all(1) | ((predicted - inside).abs() > margin).any(1)
+        predicted = torch.where(far[:, None], predicted, inside)
         chosen = update[ids]
         new[ids[chosen]] = predicted[chosen]
         for b in torch.nonzero(live).squeeze(1).tolist():
-            results[b].node_updates += int(chosen[batch[ids] == b].sum())
+            mine = chosen & (batch[ids] == b)
+            results[b].node_updates += int(mine.sum())
+            results[b].pushed_back += int((mine & pushed_back).sum())
         history = torch.cat([history[:, 1:], new[:, None]], dim=1)
 
         velocity2 = (history[:, -1] - history[:, -2]).pow(2).sum(1)
         mean_v2 = torch.zeros(n_graphs, device=device).index_add_(0, batch, velocity2) / torch.as_tensor(
             counts, device=device, dtype=torch.float32)
-        outside = ~torch.isfinite(new).all(1) | (new < bounds[:, 0] - margin).any(1) | (new > bounds[:, 1] + margin).any(1)
+        outside = torch.zeros_like(update)
+        outside[ids[chosen]] = far[chosen]
         bad = torch.zeros(n_graphs, dtype=torch.long, device=device).index_add_(0, batch, outside.long()) > 0
         peak = torch.maximum(peak, mean_v2)
         quiet = torch.where(mean_v2 <= settings.early_stop_fraction * peak, quiet + 1, torch.zeros_like(quiet))

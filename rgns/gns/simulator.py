@@ -117,11 +117,11 @@ def random_walk_noise(positions: torch.Tensor, noise_std: float, generator: torc
 class OneStepLoss(nn.Module):
     """MSE of normalised accelerations, averaged per graph then over graphs (so each trajectory
     weighs the same whatever its size, and a batch split across processes averages to the same
-    gradient). Calling this module, wrapped or not in DistributedDataParallel, is one step."""
+    gradient). Normalised targets are clipped at ``target_clip``. Calling this module, wrapped or not in DistributedDataParallel, is one step."""
 
-    def __init__(self, simulator: LearnedSimulator):
+    def __init__(self, simulator: LearnedSimulator, target_clip: float | None = None):
         super().__init__()
-        self.simulator = simulator
+        self.simulator, self.target_clip = simulator, target_clip
 
     def forward(self, graph: GraphInput, target: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
         noisy = GraphInput(graph.positions + noise, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs)
@@ -130,6 +130,8 @@ class OneStepLoss(nn.Module):
         acceleration = adjusted - 2 * noisy.positions[:, -1] + noisy.positions[:, -2]
         sim = self.simulator
         target_normalized = (acceleration - sim.acceleration_mean) / sim.acceleration_std
+        if self.target_clip:  # a free fall or a floor impact of 26 g must not outweigh everything else
+            target_normalized = target_normalized.clamp(-self.target_clip, self.target_clip)
         error = (sim(noisy) - target_normalized).pow(2).sum(dim=1)
         per_graph = torch.zeros(graph.n_graphs, device=error.device).index_add_(0, graph.batch, error)
         counts = torch.bincount(graph.batch, minlength=graph.n_graphs).clamp_min(1)

@@ -1,8 +1,15 @@
 """Training: noisy one-step loss, Adam with exponential decay to a floor, validation,
 checkpoints every N steps, resume after a restart, learning curve, optional DDP and pushforward.
 
+The recipe that makes a GNS learn from MPM runs (docs/gns-training.md): targets from trajectories
+smoothed in time, padded early-stop frames never drawn, the training noise folded into the
+normalisation, normalised targets clipped, the learning rate annealed over the budget. Every
+validation scores the one-step loss against the mean predictor's on the same fixed windows, and
+full rollouts of held-out trajectories by their runout R, volume V and influence I: the model
+kept (``gns.pt``) is the checkpoint with the best rollout score, not the last iterate.
+
 A restarted job finds ``checkpoints/latest.pt`` and continues from its step with the same
-optimizer state, learning-rate position and random streams. With several processes (torchrun,
+optimizer state, learning-rate position and random streams (saved with it). With several processes (torchrun,
 or ``processes > 1`` for gloo on CPU) the loss module is wrapped in DistributedDataParallel and
 *called through the wrapper*, so gradients are averaged across processes.
 """
@@ -23,12 +30,14 @@ import torch
 import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
 
-from rgns.gns.data import WindowSampler, normalization_of
-from rgns.gns.rollout import rollout
+from rgns.gns.data import WindowSampler
+from rgns.gns.rollout import RolloutSettings, rollout
 from rgns.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, OneStepLoss, random_walk_noise
+from rgns.metrics import runout_metrics
 
 log = logging.getLogger(__name__)
 CHECKPOINT = "latest.pt"
+BEST = "best.pt"
 
 
 @dataclass
@@ -39,14 +48,16 @@ class TrainSettings:
     batch_graphs: int = 2
     learning_rate: float = 1e-3
     learning_rate_min: float = 1e-6
-    decay_rate: float = 0.1
-    decay_steps: int = 5000
-    noise_std: float = 2e-4
+    decay_rate: float = 0.01
+    decay_steps: int | None = None  # None: the training steps (anneal over the budget)
+    noise_std: float = 5e-5
+    smoothing_frames: float = 2.0
+    target_clip: float = 25.0
     pushforward_steps: int = 0
     checkpoint_every: int = 200
     validate_every: int = 200
-    validation_windows: int = 8
-    validation_rollout_frames: int = 40
+    validation_windows: int = 128
+    selection_trajectories: int = 6
     log_every: int = 50
     seed: int = 0
     device: str = "cpu"
@@ -66,7 +77,7 @@ def settings_from_config(section: dict[str, Any], cell_size_m: float) -> tuple[M
 
 def learning_rate(settings: TrainSettings, step: int) -> float:
     """(lr − lr_min)·decay^(step / decay_steps) + lr_min."""
-    decay = settings.decay_rate ** (step / settings.decay_steps)
+    decay = settings.decay_rate ** (step / (settings.decay_steps or settings.steps))
     return (settings.learning_rate - settings.learning_rate_min) * decay + settings.learning_rate_min
 
 
@@ -85,8 +96,6 @@ def pushforward(simulator: LearnedSimulator, graph: GraphInput, targets: torch.T
     return GraphInput(positions, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs), targets[:, -1]
 
 
-def build_simulator(model: ModelSettings, train_path: str, bounds: np.ndarray) -> LearnedSimulator:
-    return LearnedSimulator(model, normalization_of(train_path), bounds)
 
 
 def load_simulator(path: str | Path, device: str = "cpu") -> LearnedSimulator:
@@ -104,26 +113,82 @@ def load_simulator(path: str | Path, device: str = "cpu") -> LearnedSimulator:
     return simulator.to(device)
 
 
-def validate(simulator: LearnedSimulator, sampler: WindowSampler, settings: TrainSettings, device: torch.device) -> dict:
-    """One-step loss on fixed windows and the position error after a short rollout."""
-    rng = np.random.default_rng(12345)
-    window = sampler.sample(rng, settings.validation_windows)
-    objective = OneStepLoss(simulator)
-    with torch.no_grad():
-        graph = _to(window.graph, device)
-        one_step = float(objective(graph, window.targets[:, 0].to(device), torch.zeros_like(graph.positions)))
+VALIDATION_SEED = 12345
+VALIDATION_BATCH = 8
+
+
+def fixed_windows(sampler: WindowSampler, count: int) -> list[list[tuple[int, int]]]:
+    """The same ``count`` held-out windows at every validation, in batches."""
+    picks = sampler.draw(np.random.default_rng(VALIDATION_SEED), count)
+    return [picks[i:i + VALIDATION_BATCH] for i in range(0, len(picks), VALIDATION_BATCH)]
+
+
+@torch.no_grad()
+def one_step_losses(simulator: LearnedSimulator, sampler: WindowSampler, batches: list, target_clip: float | None,
+                    device: torch.device) -> tuple[float, float]:
+    """The model's noise-free one-step loss and the mean predictor's (always the mean acceleration,
+    i.e. 0 in normalised units) on the same windows."""
+    objective = OneStepLoss(simulator, target_clip)
+    model, mean = [], []
+    for picks in batches:
+        window = sampler.window(picks)
+        graph, target = _to(window.graph, device), window.targets[:, 0].to(device)
+        zero = torch.zeros_like(graph.positions)
+        model.append(float(objective(graph, target, zero)) * len(picks))
+        acceleration = target - 2 * graph.positions[:, -1] + graph.positions[:, -2]
+        normalized = (acceleration - simulator.acceleration_mean) / simulator.acceleration_std
+        if target_clip:
+            normalized = normalized.clamp(-target_clip, target_clip)
+        error = normalized.pow(2).sum(1)
+        per_graph = torch.zeros(graph.n_graphs).index_add_(0, graph.batch.cpu(), error.cpu())
+        mean.append(float((per_graph / torch.bincount(graph.batch.cpu(), minlength=graph.n_graphs)).sum()))
+    count = sum(len(picks) for picks in batches)
+    return sum(model) / count, sum(mean) / count
+
+
+def rollout_score(simulator: LearnedSimulator, sampler: WindowSampler, trajectories: int,
+                  device: torch.device) -> dict:
+    """Full rollouts of the first held-out trajectories against their MPM runs: the mean absolute
+    error of R, V and I, each over the mean MPM value plus one (m or m²), averaged into one score."""
     history = simulator.settings.history
-    frames = min(sampler.frames, history + 1 + settings.validation_rollout_frames)
-    errors = []
-    for trajectory in range(min(sampler.n_trajectories, 4)):
-        truth = sampler.frames_of(trajectory, 0, frames)
-        predicted = rollout(simulator, [truth[:history + 1]], [sampler.particle_type[trajectory].numpy()],
-                            [sampler.tan_friction[trajectory].numpy()], frames, device=str(device))[0]
-        errors.append(float(np.linalg.norm(predicted.positions[-1] - truth[-1], axis=1).mean()))
-    return {"valid_one_step_loss": one_step, "valid_rollout_error_m": float(np.mean(errors))}
+    picks = list(range(min(trajectories, sampler.n_trajectories)))
+    truths = [sampler.frames_of(k, 0, sampler.frames) for k in picks]
+    results = rollout(simulator, [t[:history + 1] for t in truths], [sampler.particle_type[k].numpy() for k in picks],
+                      [sampler.tan_friction[k].numpy() for k in picks], sampler.frames,
+                      RolloutSettings(early_stop=True, keep="ends"), device=str(device))
+    errors = {"runout_m": [], "volume_m2": [], "influence_m": []}
+    reference = {key: [] for key in errors}
+    diverged = 0
+    for k, truth, result in zip(picks, truths, results):
+        diverged += result.status != "ok"
+        crest = _crest_x(truth[0])
+        mpm = runout_metrics(truth[0], truth[-1], sampler.volume_m2[k], crest).as_row()
+        gns = runout_metrics(truth[0], result.positions[-1], sampler.volume_m2[k], crest).as_row()
+        for key in errors:
+            errors[key].append(abs(gns[key] - mpm[key]))
+            reference[key].append(abs(mpm[key]))
+    relative = [np.mean(errors[key]) / (np.mean(reference[key]) + 1.0) for key in errors]
+    return {"valid_rollout_score": float(np.mean(relative) + diverged),
+            "valid_runout_error_m": float(np.mean(errors["runout_m"])), "valid_diverged": diverged}
 
 
-RESUME_NEUTRAL = ("steps", "checkpoint_every", "validate_every", "validation_windows", "validation_rollout_frames",
+def _crest_x(initial: np.ndarray) -> float:
+    """The crest of a slope from its particles: the rightmost one within half a metre of the top."""
+    top = initial[:, 1] >= initial[:, 1].max() - 0.5
+    return float(initial[top, 0].max())
+
+
+def validate(simulator: LearnedSimulator, sampler: WindowSampler, batches: list, settings: TrainSettings,
+             device: torch.device) -> dict:
+    """One-step loss beside the mean predictor's, and the held-out rollout score."""
+    loss, mean_loss = one_step_losses(simulator, sampler, batches, settings.target_clip, device)
+    row = {"valid_one_step_loss": loss, "valid_mean_predictor_loss": mean_loss}
+    if settings.selection_trajectories:
+        row |= rollout_score(simulator, sampler, settings.selection_trajectories, device)
+    return row
+
+
+RESUME_NEUTRAL = ("steps", "checkpoint_every", "validate_every", "validation_windows", "selection_trajectories",
                   "log_every", "device", "threads")
 
 
@@ -141,8 +206,9 @@ def _save(path: Path, state: dict[str, Any]) -> None:
 
 
 def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_path: str, out_dir: str | Path,
-          final_model: str | Path | None = None) -> dict:
-    """Train (or resume) and write ``gns.pt``, ``history.csv`` and checkpoints into ``out_dir``."""
+          final_model: str | Path | None = None, init_model: str | Path | None = None) -> dict:
+    """Train (or resume) and write ``gns.pt``, ``history.csv`` and checkpoints into ``out_dir``.
+    With ``init_model`` (fine-tuning) the weights and normalisation start from that model."""
     distributed = dist.is_available() and dist.is_initialized()
     rank = dist.get_rank() if distributed else 0
     device = torch.device(settings.device)
@@ -150,34 +216,47 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
     out_dir = Path(out_dir)
     checkpoints = out_dir / "checkpoints"
     checkpoints.mkdir(parents=True, exist_ok=True)
-    train_windows = WindowSampler(train_path, model.history, max(1, settings.pushforward_steps + 1))
-    valid_windows = WindowSampler(valid_path, model.history)
+    train_windows = WindowSampler(train_path, model.history, max(1, settings.pushforward_steps + 1),
+                                  settings.smoothing_frames)
+    valid_windows = WindowSampler(valid_path, model.history, 1, settings.smoothing_frames)
+    batches = fixed_windows(valid_windows, settings.validation_windows)
     torch.manual_seed(settings.seed)
-    simulator = build_simulator(model, train_path, train_windows.bounds).to(device)
-    objective = OneStepLoss(simulator)
+    if init_model:
+        simulator = load_simulator(init_model, str(device))
+        if simulator.settings != model:
+            differing = [key for key, value in asdict(model).items() if getattr(simulator.settings, key) != value]
+            raise ValueError(f"{init_model}: its architecture differs from config gns in {', '.join(differing)} "
+                             f"({', '.join(f'{k} {getattr(simulator.settings, k)}' for k in differing)}): "
+                             "fine-tuning needs the same")
+    else:
+        simulator = LearnedSimulator(model, train_windows.normalization(settings.noise_std), train_windows.bounds)
+    simulator = simulator.to(device)
+    objective = OneStepLoss(simulator, settings.target_clip)
     step_module = DistributedDataParallel(objective) if distributed else objective
     optimizer = torch.optim.Adam(simulator.parameters(), lr=settings.learning_rate)
-    start, history, elapsed = 0, [], 0.0
-    latest = checkpoints / CHECKPOINT
+    start, history, elapsed, best = 0, [], 0.0, None
+    latest, best_path = checkpoints / CHECKPOINT, checkpoints / BEST
     state = torch.load(latest, map_location=device, weights_only=False) if latest.exists() else None
     if state is not None and state.get("fingerprint") != fingerprint(simulator, settings):
         stale = latest.with_name(f"stale-{int(time.time())}.pt")
         latest.replace(stale)
         log.warning("%s was made with other settings or data: kept as %s, training from scratch", latest, stale)
         state = None
+    rng = np.random.default_rng([settings.seed, rank])
+    noise_generator = torch.Generator().manual_seed(settings.seed * 1000 + rank)
     if state is not None:
         simulator.load_state_dict(state["model"])
         optimizer.load_state_dict(state["optimizer"])
-        start, history, elapsed = state["step"], state["history"], state["elapsed_s"]
+        start, history, elapsed, best = state["step"], state["history"], state["elapsed_s"], state.get("best")
+        streams = state["streams"][rank] if rank < len(state["streams"]) else state["streams"][0]
+        rng.bit_generator.state = streams["windows"]
+        noise_generator.set_state(streams["noise"])
         log.info("resumed from step %d of %d (%s)", start, settings.steps, latest)
         if start >= settings.steps:
             log.info("the checkpoint is at step %d, beyond the %d asked for: nothing to train", start, settings.steps)
     else:
         log.info("training from scratch: %d steps, %d parameters", settings.steps,
                  sum(p.numel() for p in simulator.parameters()))
-    # streams keyed by (seed, process, first step): a resumed run draws fresh, reproducible windows
-    rng = np.random.default_rng([settings.seed, rank, start])
-    noise_generator = torch.Generator().manual_seed(hash((settings.seed, rank, start)) % 2 ** 62)
     began = time.perf_counter() - elapsed
     running = []
     for step in range(start, settings.steps):
@@ -202,21 +281,50 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
                                    "elapsed_s": time.perf_counter() - began}
             running = []
             if rank == 0 and (done % settings.validate_every == 0 or done == settings.steps):
-                row |= validate(simulator, valid_windows, settings, device)
+                row |= validate(simulator, valid_windows, batches, settings, device)
+                score = row.get("valid_rollout_score", row["valid_one_step_loss"])
+                if best is None or score < best["score"]:
+                    best = {"step": done, "score": score}
+                    _save(best_path, _model_state(simulator, settings, done, history + [row]))
             history.append(row)
             if rank == 0:
                 log.info("step %d/%d  loss %.4g  lr %.2e  %s  %.0f s", done, settings.steps, row["train_loss"], row["lr"],
                          " ".join(f"{k} {v:.4g}" for k, v in row.items() if k.startswith("valid")), row["elapsed_s"])
-        if rank == 0 and (done % settings.checkpoint_every == 0 or done == settings.steps):
-            _save(latest, {"model": simulator.state_dict(), "optimizer": optimizer.state_dict(), "step": done,
-                           "history": history, "elapsed_s": time.perf_counter() - began,
-                           "simulator": simulator.config(), "fingerprint": fingerprint(simulator, settings)})
-    summary = {"steps": settings.steps, "wall_s": time.perf_counter() - began, "resumed_from": start}
+        if done % settings.checkpoint_every == 0 or done == settings.steps:
+            streams = _gather_streams(rng, noise_generator, distributed)
+            if rank == 0:
+                _save(latest, {"model": simulator.state_dict(), "optimizer": optimizer.state_dict(), "step": done,
+                               "history": history, "elapsed_s": time.perf_counter() - began, "best": best,
+                               "streams": streams, "simulator": simulator.config(),
+                               "fingerprint": fingerprint(simulator, settings)})
+    summary = {"steps": settings.steps, "wall_s": time.perf_counter() - began, "resumed_from": start,
+               "selected_step": best["step"] if best else settings.steps}
     if rank == 0:
-        _save(Path(final_model or out_dir / "gns.pt"),
-              {"model": simulator.state_dict(), "simulator": simulator.config(), "train_settings": asdict(settings)})
+        final = Path(final_model or out_dir / "gns.pt")
+        if best is not None and best_path.exists():
+            kept = torch.load(best_path, map_location="cpu", weights_only=False)
+            kept["history"] = history
+            _save(final, kept)
+        else:
+            _save(final, _model_state(simulator, settings, settings.steps, history))
         write_history(history, out_dir / "history.csv")
     return summary
+
+
+def _model_state(simulator: LearnedSimulator, settings: TrainSettings, step: int, history: list[dict]) -> dict:
+    """What a model file holds: weights, how to rebuild the simulator, how it was trained."""
+    return {"model": simulator.state_dict(), "simulator": simulator.config(), "train_settings": asdict(settings),
+            "step": step, "history": history}
+
+
+def _gather_streams(rng: np.random.Generator, noise: torch.Generator, distributed: bool) -> list[dict]:
+    """The window and noise streams of every process, so a resume continues them exactly."""
+    mine = {"windows": rng.bit_generator.state, "noise": noise.get_state()}
+    if not distributed:
+        return [mine]
+    everyone: list[Any] = [None] * dist.get_world_size()
+    dist.all_gather_object(everyone, mine)
+    return everyone
 
 
 def write_history(history: list[dict], path: Path) -> None:

@@ -1,6 +1,12 @@
-"""Rules mc_chunk and mc_mean_field: simulate and measure some Monte Carlo realizations of a case."""
+"""Rules mc_chunk and mc_mean_field: simulate and measure some Monte Carlo realizations of a case.
+
+With the GNS as simulator, the validation gate decides: a case the GNS failed runs MPM
+(on_failure: fallback) or stops here with the failures named (on_failure: stop)."""
+from dataclasses import replace
+
 import torch
 
+from rgns.gate import simulator_for
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
 from rgns.montecarlo import CaseInputs, RunSettings, run_realizations
@@ -11,7 +17,12 @@ log = log_to_file(snakemake.log[0])
 torch.set_num_threads(snakemake.threads)
 inputs = CaseInputs.from_params(snakemake.params.inputs)
 settings = RunSettings.from_params(snakemake.params.run)
-simulator = load_simulator(snakemake.input.model[0], settings.device).eval() if snakemake.input.model else None
+if snakemake.input.gate:
+    settings = replace(settings, simulator=simulator_for(snakemake.input.gate[0], inputs.case))
+    if settings.simulator != "gns":
+        log.warning("%s: the GNS failed the validation gate: these realizations are run by MPM", inputs.case)
+use_model = snakemake.input.model and settings.simulator == "gns"
+simulator = load_simulator(snakemake.input.model[0], settings.device).eval() if use_model else None
 table = run_realizations(inputs, list(snakemake.params.indices), settings, simulator)
 write_csv(table, snakemake.output[0])
 log.info("%s: %d realizations by %s, %d screened as stable, %d not ok", inputs.case, len(table), settings.simulator,

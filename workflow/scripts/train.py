@@ -10,9 +10,11 @@ from rgns.plots import plot_learning_curve
 log = log_to_file(snakemake.log[0])
 model, settings = settings_from_config(snakemake.params.gns, snakemake.params.cell_size_m)
 out_dir = Path(snakemake.output.model).parent
-summary = train(model, settings, snakemake.input.train, snakemake.input.valid, out_dir, snakemake.output.model)
+summary = train(model, settings, snakemake.input.train, snakemake.input.valid, out_dir, snakemake.output.model,
+                init_model=snakemake.input.init[0] if snakemake.input.init else None)
 plot_learning_curve(snakemake.output.history, snakemake.output.curve)
 evaluation = evaluate(load_simulator(snakemake.output.model, settings.device), snakemake.input.valid) | summary
 Path(snakemake.output.evaluation).write_text(json.dumps(evaluation, indent=2) + "\n")
-log.info("trained %d steps in %.0f s; validation one-step error %.4g m, rollout mean error %.4g m",
-         summary["steps"], summary["wall_s"], evaluation["one_step_error_m"], evaluation["rollout_mean_error_m"])
+log.info("trained %d steps in %.0f s, kept step %d; validation one-step error %.4g m, rollout mean error %.4g m",
+         summary["steps"], summary["wall_s"], summary["selected_step"], evaluation["one_step_error_m"],
+         evaluation["rollout_mean_error_m"])

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rgns.gate import judge, write_verdicts
 from rgns.logsetup import log_to_file
 from rgns.tables import read_csv, write_csv
 from rgns.validation import best_median_worst, case_agreement, markdown_table, ok_rows, validation_table
@@ -22,6 +23,10 @@ table = validation_table(agreements)
 write_csv(table, snakemake.output.table)
 Path(snakemake.output.markdown).write_text(markdown_table(table))
 Path(snakemake.output.summary).write_text(json.dumps(summaries, indent=2) + "\n")
+verdicts = judge(table, summaries, settings["acceptance"], snakemake.params.cell_size_m)
+write_verdicts(verdicts, snakemake.output.gate)
+for verdict in verdicts.values():
+    (log.info if verdict.passed else log.warning)("%s", verdict.sentence())
 plot_histograms(pairs, snakemake.output.histograms)
 plot_parity(pairs, snakemake.output.parity)
 for case, energies_path, figure in zip(cases, snakemake.input.energies, snakemake.output.energy):

@@ -1,0 +1,96 @@
+"""The validation gate: may a Monte Carlo case be drawn from the GNS, judged by its agreement with
+fresh MPM runs of that case (config ``validation.acceptance``)?
+
+Per case and metric: R² at least ``r2_min`` where MPM has variance (R² is undefined otherwise), and
+the mean signed error within ``relative_bias_max`` of the MPM mean; where the MPM mean is 0 (every
+realization stands) the GNS mean must be within one mesh cell (m, or m² for a volume) of it. The
+fraction of diverged rollouts must not exceed ``diverged_fraction_max``. A case that fails is
+either simulated by MPM instead (``on_failure: fallback``) or stops the Monte Carlo with the
+failures named (``stop``).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+FALLBACK, STOP = "fallback", "stop"
+
+
+class GateError(RuntimeError):
+    """The GNS failed the gate of a case whose Monte Carlo is set to stop."""
+
+
+@dataclass
+class Verdict:
+    """The gate's decision for one case."""
+
+    case: str
+    passed: bool
+    failures: list[str] = field(default_factory=list)
+    simulator: str = "gns"  # what the Monte Carlo of this case runs: gns, or mpm after a fallback
+
+    def sentence(self) -> str:
+        if self.passed:
+            return f"{self.case}: the GNS passed the validation gate; the Monte Carlo uses it"
+        then = "the Monte Carlo runs the MPM instead" if self.simulator == "mpm" else "the Monte Carlo stops"
+        return f"{self.case}: the GNS failed the validation gate ({'; '.join(self.failures)}): {then}"
+
+
+def _bias_failure(row: pd.Series, limit: float, cell_size_m: float) -> str | None:
+    unit_tolerance = cell_size_m ** 2 if row["metric"] == "volume" else cell_size_m
+    if not math.isfinite(row["bias"]):
+        return f"{row['metric']} bias not measurable (no rollout finished)"
+    if row["mpm_mean"] == 0.0:
+        if abs(row["bias"]) > unit_tolerance:
+            return f"{row['metric']} GNS mean {row['gns_mean']:.3g} where every MPM realization is 0"
+        return None
+    if abs(row["relative_bias"]) > limit:
+        return f"{row['metric']} |relative bias| {abs(row['relative_bias']):.3f} > {limit:g}"
+    return None
+
+
+def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict[str, Any],
+          cell_size_m: float) -> dict[str, Verdict]:
+    """The verdict of every case of a validation table (rows of case × metric) and its summaries."""
+    diverged = {item["case"]: item["diverged"] / max(item["realizations"], 1) for item in summaries}
+    verdicts = {}
+    for case, rows in table.groupby("case", sort=False):
+        failures = []
+        if diverged.get(case, 0.0) > acceptance["diverged_fraction_max"]:
+            failures.append(f"diverged fraction {diverged[case]:.2f} > {acceptance['diverged_fraction_max']:g}")
+        for _, row in rows.iterrows():
+            limits = acceptance["metrics"][row["metric"]]
+            if math.isfinite(row["r2"]) and row["r2"] < limits["r2_min"]:
+                failures.append(f"{row['metric']} R² {row['r2']:.3f} < {limits['r2_min']:g}")
+            problem = _bias_failure(row, limits["relative_bias_max"], cell_size_m)
+            if problem:
+                failures.append(problem)
+        passed = not failures
+        simulator = "gns" if passed or acceptance["on_failure"] == STOP else "mpm"
+        verdicts[str(case)] = Verdict(str(case), passed, failures, simulator)
+    return verdicts
+
+
+def write_verdicts(verdicts: dict[str, Verdict], path: str | Path) -> None:
+    Path(path).write_text(json.dumps({case: asdict(v) for case, v in verdicts.items()}, indent=2) + "\n")
+
+
+def read_verdict(path: str | Path, case: str) -> Verdict:
+    """One case's verdict from the gate file, naming the file if it lacks the case."""
+    verdicts = json.loads(Path(path).read_text())
+    if case not in verdicts:
+        raise GateError(f"{path}: no verdict for {case} (was it validated?)")
+    return Verdict(**verdicts[case])
+
+
+def simulator_for(path: str | Path, case: str) -> str:
+    """The simulator a case's Monte Carlo must run after the gate; raises GateError to stop it."""
+    verdict = read_verdict(path, case)
+    if verdict.passed or verdict.simulator == "mpm":
+        return verdict.simulator
+    raise GateError(f"{verdict.sentence()} (validation.acceptance.on_failure: stop; set it to fallback to run MPM)")
