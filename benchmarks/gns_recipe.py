@@ -34,7 +34,7 @@ from rgns.gns.train import TrainSettings, fixed_windows, learning_rate, one_step
 
 RESULTS = Path(__file__).parent / "results"
 RECIPE = {"smoothing": 2.0, "noise": 5e-5, "fold_noise": True, "clip": 25.0, "drop_padding": True,
-          "decay_rate": 0.01, "decay_steps": None, "radius_cells": 1.5}
+          "decay_rate": 0.01, "decay_steps": None, "radius_cells": 1.5, "acceleration_features": False}
 VARIANTS = {
     "recipe": {},
     "no_smoothing": {"smoothing": 0.0},
@@ -44,6 +44,7 @@ VARIANTS = {
     "constant_lr": {"decay_rate": 1.0},
     "with_padding": {"drop_padding": False},
     "radius_2_cells": {"radius_cells": 2.0},
+    "acceleration_features": {"acceleration_features": True},
     "old": {"smoothing": 0.0, "noise": 2e-4, "fold_noise": False, "clip": 0.0, "drop_padding": False,
             "decay_rate": 0.1, "decay_steps": 5000},
 }
@@ -53,7 +54,7 @@ def run_variant(name: str, train_path: str, valid_path: str, steps: int, rollout
     """Train one variant for ``steps`` and score it."""
     options = RECIPE | VARIANTS[name]
     model = ModelSettings(latent_size=32, mlp_width=32, mlp_hidden_layers=2, message_passing_steps=5, history=5,
-                          radius_m=options["radius_cells"])
+                          radius_m=options["radius_cells"], acceleration_features=options["acceleration_features"])
     settings = TrainSettings(steps=steps, decay_rate=options["decay_rate"], decay_steps=options["decay_steps"],
                              learning_rate_min=1e-6)
     train = WindowSampler(train_path, model.history, 1, options["smoothing"])

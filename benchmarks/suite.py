@@ -1,7 +1,7 @@
 """Time against error, side by side on the same realizations: MPM settings, GNS variants, skipping.
 
-    python benchmarks/suite.py                       # needs results/ of `snakemake --cores 2 hazard_map`
-    python benchmarks/suite.py --realizations 4 --train-steps 500    # quicker, coarser
+    python benchmarks/suite.py                       # the shipped GNS against the MPM routes
+    python benchmarks/suite.py --realizations 4 --train-steps 500    # + GNS variants trained here
     python benchmarks/suite.py --cbgeo /path/to/mpm  # add the real CB-Geo to an existing suite.json
 
 Every route simulates the same default-config case-1 Monte Carlo realizations (drawn exactly as
@@ -13,10 +13,11 @@ mean of the three. Wall time per realization is the batch's wall time over its s
 thread; a GNS rollout includes its 6-frame MPM warm-up).
 
 * MPM: cell size 2 / 1 / 0.5 m, cfl 0.1 / 0.2 / 0.5, early stop on / off.
-* GNS: the trained default model (results/model/gns.pt) with rest-skipping, early stop, both
-  (the Monte Carlo default) or neither, and both at other rest thresholds; plus architecture variants trained here on the same
-  dataset for the same number of steps (checkpoints in benchmarks/results/models/, resumed when
-  run again).
+* GNS: the shipped model (rgns/models/gns.pt, or ``--model``) with rest-skipping, early stop, both
+  (the Monte Carlo default) or neither, and both at other rest thresholds; with ``--train-steps``,
+  architecture variants trained here on the pipeline's dataset (``results/dataset/train.h5`` of
+  a ``gns.model: train`` run) for that many steps (checkpoints in benchmarks/results/models/,
+  resumed when run again).
 * CB-Geo (``--cbgeo``): the real ``mpm`` binary on the same realizations at the default 1 m cells,
   one thread, one realization after another, added to an existing ``suite.json`` (it is slow and
   cannot be installed from a package registry).
@@ -48,6 +49,7 @@ import torch  # noqa: E402
 from rgns.cbgeo.runner import MPMDiverged, run_cbgeo, trajectory_from_cbgeo  # noqa: E402
 from rgns.cbgeo.writer import write_case  # noqa: E402
 from rgns.config import load_config  # noqa: E402
+from rgns.shipped import MODELS  # noqa: E402
 from rgns.gns.rollout import RolloutSettings  # noqa: E402
 from rgns.gns.train import load_simulator, settings_from_config, train  # noqa: E402
 from rgns.metrics import MetricSettings  # noqa: E402
@@ -217,7 +219,8 @@ def markdown(record: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--realizations", type=int, default=8)
-    parser.add_argument("--train-steps", type=int, default=2000, help="steps for each trained GNS variant")
+    parser.add_argument("--train-steps", type=int, default=0, help="train GNS variants this many steps (0: none)")
+    parser.add_argument("--model", type=Path, default=MODELS / "gns.pt", help="the GNS of the GNS routes")
     parser.add_argument("--screen-friction", type=float, default=45.0)
     parser.add_argument("--duration-s", type=float, help="simulated time (default: mpm.duration_s, 10 s)")
     parser.add_argument("--models", type=Path, default=OUT / "models", help="where trained variants are kept")
@@ -257,7 +260,7 @@ def main() -> None:
         record(f"MPM 1 m, cfl {cfl:g}", *run_mpm_route(config, 1.0, n, frames, cfl=cfl))
     record("MPM 1 m, cfl 0.2, no early stop", *run_mpm_route(config, 1.0, n, frames, early_stop=False))
 
-    default_model = REPO / "results" / "model" / "gns.pt"
+    default_model = args.model
     mc = rollout_settings(config["montecarlo"]["rollout"], "ends")
     plain = replace(mc, skip_rest=False, early_stop=False)
     record("GNS default, neither", *run_gns_route(config, default_model, n, frames, plain))
@@ -269,7 +272,7 @@ def main() -> None:
                *run_gns_route(config, default_model, n, frames, replace(mc, rest_velocity=rest)))
     variants = {"GNS latent 16, 3 MP": {"latent_size": 16, "mlp_width": 16, "message_passing_steps": 3},
                 "GNS radius 1.0 m": {"radius_m": 1.0}}
-    for name, model in variants.items():
+    for name, model in variants.items() if args.train_steps else ():
         path = train_variant(config, args.models, name.replace(" ", "_").replace(",", ""), args.train_steps, **model)
         record(f"{name}, both", *run_gns_route(config, path, n, frames, mc))
 

@@ -32,6 +32,7 @@ class ModelSettings:
     message_passing_steps: int = 10
     history: int = 5
     radius_m: float = 4.0
+    acceleration_features: bool = False  # also the history's accelerations, normalised as the targets are
 
 
 @dataclass
@@ -69,6 +70,8 @@ class LearnedSimulator(nn.Module):
         self.register_buffer("bounds", torch.tensor(np.asarray(bounds), dtype=torch.float32))
         self.type_embedding = nn.Embedding(PARTICLE_TYPES, TYPE_EMBEDDING)
         node_features = 2 * settings.history + 4 + TYPE_EMBEDDING + 1
+        if settings.acceleration_features:
+            node_features += 2 * (settings.history - 1)
         self.network = EncodeProcessDecode(node_features, 3, 2, settings.latent_size, settings.mlp_width,
                                            settings.mlp_hidden_layers, settings.message_passing_steps)
 
@@ -80,13 +83,17 @@ class LearnedSimulator(nn.Module):
     def graph_features(self, graph: GraphInput, senders: torch.Tensor, receivers: torch.Tensor):
         radius = self.settings.radius_m
         last = graph.positions[:, -1]
-        velocities = graph.positions[:, 1:] - graph.positions[:, :-1]
-        velocities = (velocities - self.velocity_mean) / self.velocity_std
+        raw_velocities = graph.positions[:, 1:] - graph.positions[:, :-1]
+        velocities = (raw_velocities - self.velocity_mean) / self.velocity_std
         walls = torch.cat([last - self.bounds[:, 0], self.bounds[:, 1] - last], dim=1) / radius
         norm = self.normalization
         tan_friction = (graph.tan_friction - norm.tan_friction_mean) / norm.tan_friction_std
-        nodes = torch.cat([velocities.flatten(1), walls.clamp(-1.0, 1.0),
-                           self.type_embedding(graph.particle_type), tan_friction[:, None]], dim=1)
+        parts = [velocities.flatten(1)]
+        if self.settings.acceleration_features:
+            accelerations = raw_velocities[:, 1:] - raw_velocities[:, :-1]
+            parts.append(((accelerations - self.acceleration_mean) / self.acceleration_std).flatten(1))
+        nodes = torch.cat([*parts, walls.clamp(-1.0, 1.0), self.type_embedding(graph.particle_type),
+                           tan_friction[:, None]], dim=1)
         displacement = (last[senders] - last[receivers]) / radius
         edges = torch.cat([displacement, displacement.norm(dim=1, keepdim=True)], dim=1)
         return nodes, edges

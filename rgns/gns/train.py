@@ -70,6 +70,7 @@ def settings_from_config(section: dict[str, Any], cell_size_m: float) -> tuple[M
         latent_size=section["latent_size"], mlp_width=section["mlp_width"],
         mlp_hidden_layers=section["mlp_hidden_layers"], message_passing_steps=section["message_passing_steps"],
         history=section["history"], radius_m=section["connectivity_radius_cells"] * cell_size_m,
+        acceleration_features=section["acceleration_features"],
     )
     train = TrainSettings(**{key: section[key] for key in TrainSettings.__dataclass_fields__ if key in section})
     return model, train
