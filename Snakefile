@@ -59,6 +59,7 @@ rule hazard_map:
     unless gns.model is shipped), GNS, validation gate, Monte Carlo, hazard report."""
     input:
         expand("results/dataset/{set}.h5", set=RUN_SETS),
+        [] if config["gns"]["model"] == "shipped" else "results/dataset/gns/metadata.json",
         "results/report/report.html",
 
 

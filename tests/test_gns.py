@@ -397,3 +397,20 @@ def test_the_training_noise_is_folded_into_the_normalisation(tiny_dataset):
         np.testing.assert_allclose(np.square(getattr(noisy, key)), np.square(getattr(clean, key)) + 3e-3 ** 2,
                                    rtol=1e-6)
     assert noisy.velocity_mean == clean.velocity_mean
+
+
+def test_fine_tuning_starts_from_the_given_model_and_refuses_another_architecture(trained_small, tiny_dataset,
+                                                                                   tmp_path):
+    directory, _ = trained_small
+    settings = TrainSettings(steps=20, batch_graphs=2, noise_std=0.0, smoothing_frames=0.0, log_every=10,
+                             validate_every=20, checkpoint_every=20, selection_trajectories=0)
+    with pytest.raises(ValueError, match=r"gns.pt: its architecture differs from config gns in latent_size"):
+        train(replace(SMALL, latent_size=24), settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path / "a",
+              init_model=directory / "gns.pt")
+    train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path / "b", init_model=directory / "gns.pt")
+    start = load_simulator(directory / "gns.pt")
+    tuned = load_simulator(tmp_path / "b" / "gns.pt")
+    assert tuned.normalization == start.normalization  # the shipped statistics are kept
+    history = (tmp_path / "b" / "history.csv").read_text().splitlines()
+    first_loss = float(history[1].split(",")[history[0].split(",").index("train_loss")])
+    assert first_loss < 0.1  # it starts from the trained weights, not from scratch (about 1 there)

@@ -225,4 +225,5 @@ def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_
     result = snakemake(copy_dir, "--cores", "2", "hazard_map", config=write_config(tmp_path / "stop.yaml", strict))
     assert result.returncode != 0
     assert "case1: the GNS failed the validation gate (runout R²" in result.stdout + result.stderr
+    assert "case1: the GNS failed" in (copy_dir / "logs" / "mc_chunk" / "case1" / "chunk_000.log").read_text()
     assert (copy_dir / "results" / "validation" / "case1" / "pairs.csv").exists()

@@ -2,11 +2,12 @@
 
 With the GNS as simulator, the validation gate decides: a case the GNS failed runs MPM
 (on_failure: fallback) or stops here with the failures named (on_failure: stop)."""
+import sys
 from dataclasses import replace
 
 import torch
 
-from rgns.gate import simulator_for
+from rgns.gate import GateError, simulator_for
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
 from rgns.montecarlo import CaseInputs, RunSettings, run_realizations
@@ -18,7 +19,12 @@ torch.set_num_threads(snakemake.threads)
 inputs = CaseInputs.from_params(snakemake.params.inputs)
 settings = RunSettings.from_params(snakemake.params.run)
 if snakemake.input.gate:
-    settings = replace(settings, simulator=simulator_for(snakemake.input.gate[0], inputs.case))
+    try:
+        settings = replace(settings, simulator=simulator_for(snakemake.input.gate[0], inputs.case))
+    except GateError as error:  # said in snakemake's own output too, not only in this job's log
+        log.error("%s", error)
+        print(f"rgns: {error}", file=sys.__stderr__, flush=True)
+        sys.exit(1)
     if settings.simulator != "gns":
         log.warning("%s: the GNS failed the validation gate: these realizations are run by MPM", inputs.case)
 use_model = snakemake.input.model and settings.simulator == "gns"
