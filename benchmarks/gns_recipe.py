@@ -85,7 +85,8 @@ def run_variant(name: str, train_path: str, valid_path: str, steps: int, rollout
         valid.smoothing_frames = sigma
         loss, mean = one_step_losses(simulator, valid, batches, 25.0, cpu)
         scores[f"{label}_loss_over_mean_predictor"] = loss / mean
-    scores |= rollout_score(simulator, WindowSampler(valid_path, model.history), rollouts, cpu)
+    scores |= rollout_score(simulator, WindowSampler(valid_path, model.history), rollouts, settings.selection_warmup_frames,
+                            cpu)
     return scores
 
 

@@ -27,7 +27,7 @@ def main() -> None:
     record = json.loads((OUT / "suite.json").read_text())
     reference, neither = record["routes"]["reference"]["rows"], record["routes"]["GNS default, neither"]
     config = load_config(REPO / "config" / "config.yaml")
-    base = rollout_settings(config["montecarlo"]["rollout"], "ends")
+    base = rollout_settings(config["montecarlo"]["rollout"], config["mpm"]["frame_interval_s"], "ends")
     rows = []
     for hops, displacement, velocity in SETTINGS:
         settings = replace(base, context_hops=hops, rest_displacement=displacement, rest_velocity=velocity)

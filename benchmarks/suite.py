@@ -261,7 +261,7 @@ def main() -> None:
     record("MPM 1 m, cfl 0.2, no early stop", *run_mpm_route(config, 1.0, n, frames, early_stop=False))
 
     default_model = args.model
-    mc = rollout_settings(config["montecarlo"]["rollout"], "ends")
+    mc = rollout_settings(config["montecarlo"]["rollout"], config["mpm"]["frame_interval_s"], "ends")
     plain = replace(mc, skip_rest=False, early_stop=False)
     record("GNS default, neither", *run_gns_route(config, default_model, n, frames, plain))
     record("GNS default, rest-skip", *run_gns_route(config, default_model, n, frames, replace(plain, skip_rest=True)))

@@ -84,11 +84,11 @@ def _mpm(args: argparse.Namespace) -> int:
 def _train(args: argparse.Namespace) -> int:
     import logging
 
-    from rgns.gns.train import init_distributed_from_environment, settings_from_config, train
+    from rgns.gns.train import init_distributed_from_environment, settings_from_config, train, warmup_frames
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = load_config(args.config)
-    model, settings = settings_from_config(config["gns"], config["mesh"]["cell_size_m"])
+    model, settings = settings_from_config(config["gns"], config["mesh"]["cell_size_m"], warmup_frames(config))
     init_distributed_from_environment()  # under torchrun: one process per GPU, gradients averaged
     summary = train(model, settings, str(args.train), str(args.valid), args.out)
     print(f"trained {summary['steps']} steps in {summary['wall_s']:.0f} s (resumed from {summary['resumed_from']})")

@@ -64,8 +64,9 @@ def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, kee
 
 def simulate_gns(simulator: LearnedSimulator, batch: list[Realization], mpm: dict[str, Any], frames: int,
                  device: str = "cpu", rollout: RolloutSettings | None = None) -> list[Simulated]:
-    """MPM for the first ``history + 1`` frames, then the GNS to ``frames``."""
-    warmup = _run_mpm(batch, mpm, simulator.settings.history + 1)
+    """MPM for the warm-up (``rollout.warmup_frames``, at least ``history + 1``), then the GNS to ``frames``."""
+    length = max((rollout or RolloutSettings()).warmup_frames, simulator.settings.history + 1)
+    warmup = _run_mpm(batch, mpm, length)
     results = rollout_soil(simulator, [w.positions for w in warmup], [r.friction_deg for r in batch], frames,
                            rollout, device)
     return [Simulated(result.positions, w.status if w.status != "ok" else result.status)
@@ -150,13 +151,13 @@ class RunSettings:
                    frames=int(round(duration_s / mpm["frame_interval_s"])) + 1,
                    frame_interval_s=mpm["frame_interval_s"], metrics=MetricSettings(**params["metrics"]),
                    mpm=mpm, device=section["device"], keep_frames=section["keep_frames"],
-                   rollout=rollout_settings(section["rollout"], section["keep_frames"]),
+                   rollout=rollout_settings(section["rollout"], mpm["frame_interval_s"], section["keep_frames"]),
                    screen=ScreenSettings(**section["screen"]))
 
 
-def rollout_settings(section: dict[str, Any], keep: str = "all") -> RolloutSettings:
-    """The GNS rollout options of config section ``montecarlo.rollout``."""
-    return RolloutSettings(skip_rest=section["skip_rest"], rest_velocity=section["rest_velocity_m_per_frame"],
+def rollout_settings(section: dict[str, Any], frame_interval_s: float, keep: str = "all") -> RolloutSettings:
+    """The GNS rollout options of config section ``montecarlo.rollout`` (its MPM warm-up in frames)."""
+    return RolloutSettings(warmup_frames=int(round(section["warmup_s"] / frame_interval_s)) + 1, skip_rest=section["skip_rest"], rest_velocity=section["rest_velocity_m_per_frame"],
                            rest_displacement=section["rest_displacement_m"], context_hops=section["context_hops"],
                            early_stop=section["early_stop"], early_stop_fraction=section["early_stop_fraction"],
                            early_stop_frames=section["early_stop_frames"], keep=keep)

@@ -1,7 +1,8 @@
 """The same realizations through MPM and the GNS, paired: what the validation compares.
 
-The GNS starts, as every GNS rollout does, from the MPM's first ``history + 1`` frames, with the
-same per-particle friction, and runs as many frames as the MPM trajectory holds. Both
+The GNS takes over, as in the Monte Carlo, after the MPM's first ``rollout.warmup_frames`` frames
+(at least ``history + 1``: every GNS rollout starts from simulator frames), with the same
+per-particle friction, and runs as many frames as the MPM trajectory holds. Both
 sides are measured by the same code (:mod:`rgns.metrics`) from positions alone.
 """
 from __future__ import annotations

@@ -38,6 +38,8 @@ else:
         params:
             gns=lambda wildcards: config["gns"],
             cell_size_m=config["mesh"]["cell_size_m"],
+            warmup_s=config["montecarlo"]["rollout"]["warmup_s"],
+            frame_interval_s=config["mpm"]["frame_interval_s"],
         log:
             "logs/train/train.log",
         threads: config["gns"]["threads"]

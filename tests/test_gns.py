@@ -414,3 +414,22 @@ def test_fine_tuning_starts_from_the_given_model_and_refuses_another_architectur
     history = (tmp_path / "b" / "history.csv").read_text().splitlines()
     first_loss = float(history[1].split(",")[history[0].split(",").index("train_loss")])
     assert first_loss < 0.1  # it starts from the trained weights, not from scratch (about 1 there)
+
+
+def test_a_soil_rollout_keeps_its_mpm_warm_up_and_hands_over_after_it(tiny_dataset):
+    from rgns.gns.rollout import rollout_soil
+    torch.manual_seed(5)
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
+    sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
+    truth = sampler.frames_of(0, 0, 40)
+    friction = [np.full(truth.shape[1], 25.0)]
+    full = rollout_soil(simulator, [truth], friction, 40, RolloutSettings(warmup_frames=12))[0]
+    assert full.positions.shape == truth.shape
+    np.testing.assert_array_equal(full.positions[:12], truth[:12])  # the warm-up is the MPM's
+    assert not np.allclose(full.positions[12:], truth[12:])  # then the (untrained) network's
+    ends = rollout_soil(simulator, [truth], friction, 40, RolloutSettings(warmup_frames=12, keep="ends"))[0]
+    np.testing.assert_array_equal(ends.positions, full.positions[[0, -2, -1]])
+    assert ends.frame.tolist() == [0, 38, 39]
+    # the paper's hand-over: right after history + 1 frames
+    paper = rollout_soil(simulator, [truth], friction, 40)[0]
+    np.testing.assert_array_equal(paper.positions[:SMALL.history + 1], truth[:SMALL.history + 1])

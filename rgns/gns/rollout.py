@@ -43,6 +43,7 @@ class RolloutSettings:
     early_stop_frames: int = 20
     domain_margin_m: float = 5.0
     keep: str = "all"
+    warmup_frames: int = 0  # MPM frames a soil rollout starts from (at least history + 1)
 
     def __post_init__(self) -> None:
         check_keep(self.keep)
@@ -163,10 +164,25 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
 
 def rollout_soil(simulator: LearnedSimulator, histories: list[np.ndarray], friction_deg: list[np.ndarray],
                  frames: int, settings: RolloutSettings | None = None, device: str = "cpu") -> list[RolloutResult]:
-    """Roll out soil-only realizations from their first ``history + 1`` frames [H+1, N, 2] (from
-    MPM, as every GNS rollout starts) given each particle's friction angle."""
+    """Roll out soil-only realizations given each particle's friction angle, from MPM frames
+    [W, N, 2] (or more): the GNS takes over after ``settings.warmup_frames`` = W frames of MPM
+    (at least ``history + 1``, as every GNS rollout starts from simulator frames). The results
+    hold frames from 0, the warm-up's own first."""
+    settings = settings or RolloutSettings()
     length = simulator.settings.history + 1
-    histories = [np.asarray(h, dtype=np.float32)[:length] for h in histories]
+    warmup = max(settings.warmup_frames, length)
+    offset = warmup - length
+    histories = [np.asarray(h, dtype=np.float32) for h in histories]
+    starts = [h[offset:warmup] for h in histories]
     types = [np.full(h.shape[1], SOIL, dtype=np.int64) for h in histories]
     tan_frictions = [np.tan(np.radians(np.asarray(f, dtype=float))).astype(np.float32) for f in friction_deg]
-    return rollout(simulator, histories, types, tan_frictions, frames, settings, device)
+    results = rollout(simulator, starts, types, tan_frictions, frames - offset, settings, device)
+    for history, result in zip(histories, results):
+        if settings.keep == "all":
+            result.positions = np.concatenate([history[:offset], result.positions])
+        else:
+            result.positions[0] = history[0]
+        result.frame = kept_frames(settings.keep, frames)
+        if result.stopped_at_frame is not None:
+            result.stopped_at_frame += offset
+    return results

@@ -31,7 +31,7 @@ import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
 
 from rgns.gns.data import WindowSampler
-from rgns.gns.rollout import RolloutSettings, rollout
+from rgns.gns.rollout import RolloutSettings, rollout_soil
 from rgns.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, OneStepLoss, random_walk_noise
 from rgns.metrics import runout_metrics
 
@@ -58,14 +58,17 @@ class TrainSettings:
     validate_every: int = 200
     validation_windows: int = 128
     selection_trajectories: int = 6
+    selection_warmup_frames: int = 81  # MPM frames before the GNS takes over, as montecarlo.rollout.warmup_s
     log_every: int = 50
     seed: int = 0
     device: str = "cpu"
     threads: int = 1
 
 
-def settings_from_config(section: dict[str, Any], cell_size_m: float) -> tuple[ModelSettings, TrainSettings]:
-    """Model and training settings from the config's ``gns`` section."""
+def settings_from_config(section: dict[str, Any], cell_size_m: float,
+                         selection_warmup_frames: int | None = None) -> tuple[ModelSettings, TrainSettings]:
+    """Model and training settings from the config's ``gns`` section (and the Monte Carlo's MPM
+    warm-up in frames, which the held-out rollouts that select the model start from)."""
     model = ModelSettings(
         latent_size=section["latent_size"], mlp_width=section["mlp_width"],
         mlp_hidden_layers=section["mlp_hidden_layers"], message_passing_steps=section["message_passing_steps"],
@@ -73,7 +76,14 @@ def settings_from_config(section: dict[str, Any], cell_size_m: float) -> tuple[M
         acceleration_features=section["acceleration_features"],
     )
     train = TrainSettings(**{key: section[key] for key in TrainSettings.__dataclass_fields__ if key in section})
+    if selection_warmup_frames is not None:
+        train.selection_warmup_frames = selection_warmup_frames
     return model, train
+
+
+def warmup_frames(config: dict[str, Any]) -> int:
+    """Frames of MPM before the GNS takes over (config montecarlo.rollout.warmup_s)."""
+    return int(round(config["montecarlo"]["rollout"]["warmup_s"] / config["mpm"]["frame_interval_s"])) + 1
 
 
 def learning_rate(settings: TrainSettings, step: int) -> float:
@@ -147,16 +157,16 @@ def one_step_losses(simulator: LearnedSimulator, sampler: WindowSampler, batches
     return sum(model) / count, sum(mean) / count
 
 
-def rollout_score(simulator: LearnedSimulator, sampler: WindowSampler, trajectories: int,
+def rollout_score(simulator: LearnedSimulator, sampler: WindowSampler, trajectories: int, warmup_frames: int,
                   device: torch.device) -> dict:
-    """Full rollouts of the first held-out trajectories against their MPM runs: the mean absolute
-    error of R, V and I, each over the mean MPM value plus one (m or m²), averaged into one score."""
-    history = simulator.settings.history
+    """Full rollouts of the first held-out trajectories (after ``warmup_frames`` of their MPM run,
+    as the Monte Carlo starts them) against their MPM runs: the mean absolute error of R, V and I,
+    each over the mean MPM value plus one (m or m²), averaged into one score (plus the diverged count)."""
     picks = list(range(min(trajectories, sampler.n_trajectories)))
     truths = [sampler.frames_of(k, 0, sampler.frames) for k in picks]
-    results = rollout(simulator, [t[:history + 1] for t in truths], [sampler.particle_type[k].numpy() for k in picks],
-                      [sampler.tan_friction[k].numpy() for k in picks], sampler.frames,
-                      RolloutSettings(early_stop=True, keep="ends"), device=str(device))
+    friction = [np.degrees(np.arctan(sampler.tan_friction[k].numpy())) for k in picks]
+    results = rollout_soil(simulator, truths, friction, sampler.frames,
+                           RolloutSettings(early_stop=True, keep="ends", warmup_frames=warmup_frames), str(device))
     errors = {"runout_m": [], "volume_m2": [], "influence_m": []}
     reference = {key: [] for key in errors}
     diverged = 0
@@ -185,12 +195,13 @@ def validate(simulator: LearnedSimulator, sampler: WindowSampler, batches: list,
     loss, mean_loss = one_step_losses(simulator, sampler, batches, settings.target_clip, device)
     row = {"valid_one_step_loss": loss, "valid_mean_predictor_loss": mean_loss}
     if settings.selection_trajectories:
-        row |= rollout_score(simulator, sampler, settings.selection_trajectories, device)
+        row |= rollout_score(simulator, sampler, settings.selection_trajectories, settings.selection_warmup_frames,
+                             device)
     return row
 
 
 RESUME_NEUTRAL = ("steps", "checkpoint_every", "validate_every", "validation_windows", "selection_trajectories",
-                  "log_every", "device", "threads")
+                  "selection_warmup_frames", "log_every", "device", "threads")
 
 
 def fingerprint(simulator: LearnedSimulator, settings: TrainSettings) -> str:

@@ -8,7 +8,9 @@ from rgns.logsetup import log_to_file
 from rgns.plots import plot_learning_curve
 
 log = log_to_file(snakemake.log[0])
-model, settings = settings_from_config(snakemake.params.gns, snakemake.params.cell_size_m)
+params = snakemake.params
+model, settings = settings_from_config(params.gns, params.cell_size_m,
+                                       int(round(params.warmup_s / params.frame_interval_s)) + 1)
 out_dir = Path(snakemake.output.model).parent
 summary = train(model, settings, snakemake.input.train, snakemake.input.valid, out_dir, snakemake.output.model,
                 init_model=snakemake.input.init[0] if snakemake.input.init else None)

@@ -18,7 +18,8 @@ simulator = load_simulator(snakemake.input.model, params.device).eval()
 trajectories = list(read_packed(snakemake.input.packed))
 scenes = {scene.index: scene for scene in map(read_scene, snakemake.input.scenes)}
 paired = pair_case(simulator, trajectories, scenes, MetricSettings(**params.metrics), params.gravity_m_s2,
-                   params.batch_size, params.device, rollout_settings(params.rollout))
+                   params.batch_size, params.device,
+                   rollout_settings(params.rollout, trajectories[0].frame_interval_s))
 write_csv(paired.pairs, snakemake.output.pairs)
 np.savez_compressed(snakemake.output.energies, **paired.energies())
 log.info("%s: %d realizations paired, %d GNS rollouts not ok", snakemake.wildcards.case, len(paired.pairs),
