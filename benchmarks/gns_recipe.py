@@ -58,7 +58,8 @@ def run_variant(name: str, train_path: str, valid_path: str, steps: int, rollout
     settings = TrainSettings(steps=steps, decay_rate=options["decay_rate"], decay_steps=options["decay_steps"],
                              learning_rate_min=1e-6)
     train = WindowSampler(train_path, model.history, 1, options["smoothing"])
-    if not options["drop_padding"]:
+    if not options["drop_padding"]:  # every frame counts as real, copies included
+        train.real = [train.frames] * train.n_trajectories
         train.starts = np.full(train.n_trajectories, train.frames - train.length + 1)
     torch.manual_seed(seed)
     normalization = train.normalization(options["noise"] if options["fold_noise"] else 0.0)
