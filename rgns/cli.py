@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -95,6 +96,16 @@ def _train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _model_card(args: argparse.Namespace) -> int:
+    from rgns.shipped import render_card
+
+    card = json.loads(args.card.read_text())
+    validation = args.validation.read_text() if args.validation else None
+    args.out.write_text(render_card(card, validation))
+    print(f"wrote {args.out}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="rgns", description="rgns workflow helpers")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -127,6 +138,11 @@ def main(argv: list[str] | None = None) -> int:
     trainer.add_argument("--valid", type=Path, required=True, help="packed validation set (dataset/valid.h5)")
     trainer.add_argument("--out", type=Path, required=True, help="directory for gns.pt, history.csv, checkpoints/")
     trainer.set_defaults(run=_train)
+    card = commands.add_parser("model-card", help="render a model card (card.json) as Markdown, with a validation table")
+    card.add_argument("card", type=Path, help="card.json")
+    card.add_argument("--validation", type=Path, help="results/report/validation/table.md of a run with this model")
+    card.add_argument("--out", type=Path, required=True, help="card.md to write")
+    card.set_defaults(run=_model_card)
     args = parser.parse_args(argv)
     return args.run(args)
 

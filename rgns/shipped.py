@@ -116,7 +116,8 @@ def render_card(card: dict[str, Any], validation_markdown: str | None = None) ->
         f"{kept['valid_mean_predictor_loss']:.4g} ({ratio:.2f} of it); mean |R error| over held-out rollouts "
         f"{kept['valid_runout_error_m']:.2f} m",
         f"* last validation (step {card['steps']}): one-step loss {last['valid_one_step_loss']:.4g}, mean |R error| "
-        f"{last['valid_runout_error_m']:.2f} m", "",
+        f"{last['valid_runout_error_m']:.2f} m",
+        *(f"* {note}" for note in card.get("notes", [])), "",
         "![learning curve](learning_curve.png)", "",
     ]
     if validation_markdown:

@@ -60,3 +60,17 @@ def test_two_monte_carlo_runs_with_the_shipped_model_give_identical_tables(shipp
     first = run_realizations(inputs, [0, 1], settings, shipped)
     second = run_realizations(inputs, [0, 1], settings, load_simulator(MODELS / "gns.pt").eval())
     pd.testing.assert_frame_equal(first, second, check_exact=True)
+
+
+def test_the_model_card_says_what_the_model_serves_and_how_far_it_trained(tmp_path):
+    from rgns.cli import main
+
+    out = tmp_path / "card.md"
+    table = tmp_path / "table.md"
+    table.write_text("| case | metric |\n| --- | --- |\n| case1 | runout |\n")
+    assert main(["model-card", str(MODELS / "card.json"), "--validation", str(table), "--out", str(out)]) == 0
+    text = out.read_text()
+    card = read_card()
+    assert "`domain.length_m`: 80.0" in text and f"kept: step {card['selected_step']}" in text
+    assert "## Validation against fresh MPM runs of the test cases" in text and "| case1 | runout |" in text
+    assert card["kept_validation"]["valid_one_step_loss"] < card["kept_validation"]["valid_mean_predictor_loss"] / 4
