@@ -170,9 +170,10 @@ def rollout_soil(simulator: LearnedSimulator, histories: list[np.ndarray], frict
     hold frames from 0, the warm-up's own first."""
     settings = settings or RolloutSettings()
     length = simulator.settings.history + 1
-    warmup = max(settings.warmup_frames, length)
-    offset = warmup - length
     histories = [np.asarray(h, dtype=np.float32) for h in histories]
+    # a warm-up longer than the MPM frames given (or than the run) is all of them
+    warmup = min(max(settings.warmup_frames, length), frames, *(h.shape[0] for h in histories))
+    offset = warmup - length
     starts = [h[offset:warmup] for h in histories]
     types = [np.full(h.shape[1], SOIL, dtype=np.int64) for h in histories]
     tan_frictions = [np.tan(np.radians(np.asarray(f, dtype=float))).astype(np.float32) for f in friction_deg]
