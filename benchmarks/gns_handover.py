@@ -14,7 +14,7 @@ import torch
 
 from rgns.gns.data import WindowSampler
 from rgns.gns.rollout import RolloutSettings, rollout_soil
-from rgns.gns.train import _crest_x, load_simulator
+from rgns.gns.train import load_simulator, particle_crest_x
 from rgns.metrics import runout_metrics
 
 
@@ -35,7 +35,7 @@ def main() -> None:
             friction = np.degrees(np.arctan(sampler.tan_friction[k].numpy()))
             result = rollout_soil(simulator, [truth], [friction], sampler.frames,
                                   RolloutSettings(early_stop=True, keep="ends", warmup_frames=warmup))[0]
-            crest = _crest_x(truth[0])
+            crest = particle_crest_x(truth[0])
             mpm = runout_metrics(truth[0], truth[-1], sampler.volume_m2[k], crest)
             gns = runout_metrics(truth[0], result.positions[-1], sampler.volume_m2[k], crest)
             cells.append(f"R {mpm.runout_m:.2f} → {gns.runout_m:.2f}, V {mpm.volume_m2:.1f} → {gns.volume_m2:.1f}"

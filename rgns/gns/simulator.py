@@ -124,7 +124,8 @@ def random_walk_noise(positions: torch.Tensor, noise_std: float, generator: torc
 class OneStepLoss(nn.Module):
     """MSE of normalised accelerations, averaged per graph then over graphs (so each trajectory
     weighs the same whatever its size, and a batch split across processes averages to the same
-    gradient). Normalised targets are clipped at ``target_clip``. Calling this module, wrapped or not in DistributedDataParallel, is one step."""
+    gradient). Normalised targets are clipped at ``target_clip``. Calling this module, wrapped or
+    not in DistributedDataParallel, is one step."""
 
     def __init__(self, simulator: LearnedSimulator, target_clip: float | None = None):
         super().__init__()
@@ -133,13 +134,24 @@ class OneStepLoss(nn.Module):
     def forward(self, graph: GraphInput, target: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
         noisy = GraphInput(graph.positions + noise, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs)
         # the target keeps the clean next position moved by the last noise step: only velocities are noised
-        adjusted = target + noise[:, -1]
-        acceleration = adjusted - 2 * noisy.positions[:, -1] + noisy.positions[:, -2]
+        target_normalized = self.normalized_target(noisy, target + noise[:, -1])
+        return self._graph_mean((self.simulator(noisy) - target_normalized).pow(2).sum(dim=1), graph)
+
+    def mean_predictor(self, graph: GraphInput, target: torch.Tensor) -> torch.Tensor:
+        """The loss of always predicting the mean acceleration (0 normalised), noise-free: the baseline."""
+        return self._graph_mean(self.normalized_target(graph, target).pow(2).sum(dim=1), graph)
+
+    def normalized_target(self, graph: GraphInput, target: torch.Tensor) -> torch.Tensor:
+        """The acceleration that reaches ``target`` from the last two positions, normalised and clipped."""
         sim = self.simulator
-        target_normalized = (acceleration - sim.acceleration_mean) / sim.acceleration_std
+        acceleration = target - 2 * graph.positions[:, -1] + graph.positions[:, -2]
+        normalized = (acceleration - sim.acceleration_mean) / sim.acceleration_std
         if self.target_clip:  # a free fall or a floor impact of 26 g must not outweigh everything else
-            target_normalized = target_normalized.clamp(-self.target_clip, self.target_clip)
-        error = (sim(noisy) - target_normalized).pow(2).sum(dim=1)
+            normalized = normalized.clamp(-self.target_clip, self.target_clip)
+        return normalized
+
+    @staticmethod
+    def _graph_mean(error: torch.Tensor, graph: GraphInput) -> torch.Tensor:
         per_graph = torch.zeros(graph.n_graphs, device=error.device).index_add_(0, graph.batch, error)
         counts = torch.bincount(graph.batch, minlength=graph.n_graphs).clamp_min(1)
         return (per_graph / counts).mean()

@@ -144,15 +144,8 @@ def one_step_losses(simulator: LearnedSimulator, sampler: WindowSampler, batches
     for picks in batches:
         window = sampler.window(picks)
         graph, target = _to(window.graph, device), window.targets[:, 0].to(device)
-        zero = torch.zeros_like(graph.positions)
-        model.append(float(objective(graph, target, zero)) * len(picks))
-        acceleration = target - 2 * graph.positions[:, -1] + graph.positions[:, -2]
-        normalized = (acceleration - simulator.acceleration_mean) / simulator.acceleration_std
-        if target_clip:
-            normalized = normalized.clamp(-target_clip, target_clip)
-        error = normalized.pow(2).sum(1)
-        per_graph = torch.zeros(graph.n_graphs).index_add_(0, graph.batch.cpu(), error.cpu())
-        mean.append(float((per_graph / torch.bincount(graph.batch.cpu(), minlength=graph.n_graphs)).sum()))
+        model.append(float(objective(graph, target, torch.zeros_like(graph.positions))) * len(picks))
+        mean.append(float(objective.mean_predictor(graph, target)) * len(picks))
     count = sum(len(picks) for picks in batches)
     return sum(model) / count, sum(mean) / count
 
@@ -172,7 +165,7 @@ def rollout_score(simulator: LearnedSimulator, sampler: WindowSampler, trajector
     diverged = 0
     for k, truth, result in zip(picks, truths, results):
         diverged += result.status != "ok"
-        crest = _crest_x(truth[0])
+        crest = particle_crest_x(truth[0])
         mpm = runout_metrics(truth[0], truth[-1], sampler.volume_m2[k], crest).as_row()
         gns = runout_metrics(truth[0], result.positions[-1], sampler.volume_m2[k], crest).as_row()
         for key in errors:
@@ -183,7 +176,7 @@ def rollout_score(simulator: LearnedSimulator, sampler: WindowSampler, trajector
             "valid_runout_error_m": float(np.mean(errors["runout_m"])), "valid_diverged": diverged}
 
 
-def _crest_x(initial: np.ndarray) -> float:
+def particle_crest_x(initial: np.ndarray) -> float:
     """The crest of a slope from its particles: the rightmost one within half a metre of the top."""
     top = initial[:, 1] >= initial[:, 1].max() - 0.5
     return float(initial[top, 0].max())
