@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-FALLBACK, STOP = "fallback", "stop"
+STOP = "stop"
 
 
 class GateError(RuntimeError):

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from rgns.cbgeo.writer import case_from_scene
-from rgns.gns.rollout import RolloutSettings, rollout_soil
+from rgns.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
 from rgns.mpm.solver import EngineSettings, RunResult, run_batch
@@ -65,8 +65,7 @@ def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, kee
 def simulate_gns(simulator: LearnedSimulator, batch: list[Realization], mpm: dict[str, Any], frames: int,
                  device: str = "cpu", rollout: RolloutSettings | None = None) -> list[Simulated]:
     """MPM for the warm-up (``rollout.warmup_frames``, at least ``history + 1``), then the GNS to ``frames``."""
-    length = max((rollout or RolloutSettings()).warmup_frames, simulator.settings.history + 1)
-    warmup = _run_mpm(batch, mpm, length)
+    warmup = _run_mpm(batch, mpm, (rollout or RolloutSettings()).handover(simulator.settings.history))
     results = rollout_soil(simulator, [w.positions for w in warmup], [r.friction_deg for r in batch], frames,
                            rollout, device)
     return [Simulated(result.positions, w.status if w.status != "ok" else result.status)
@@ -157,7 +156,7 @@ class RunSettings:
 
 def rollout_settings(section: dict[str, Any], frame_interval_s: float, keep: str = "all") -> RolloutSettings:
     """The GNS rollout options of config section ``montecarlo.rollout`` (its MPM warm-up in frames)."""
-    return RolloutSettings(warmup_frames=int(round(section["warmup_s"] / frame_interval_s)) + 1, skip_rest=section["skip_rest"], rest_velocity=section["rest_velocity_m_per_frame"],
+    return RolloutSettings(warmup_frames=warmup_frame_count(section["warmup_s"], frame_interval_s), skip_rest=section["skip_rest"], rest_velocity=section["rest_velocity_m_per_frame"],
                            rest_displacement=section["rest_displacement_m"], context_hops=section["context_hops"],
                            early_stop=section["early_stop"], early_stop_fraction=section["early_stop_fraction"],
                            early_stop_frames=section["early_stop_frames"], keep=keep)

@@ -48,6 +48,15 @@ class RolloutSettings:
     def __post_init__(self) -> None:
         check_keep(self.keep)
 
+    def handover(self, history: int) -> int:
+        """MPM frames before the GNS takes over: the warm-up, and at least the ``history + 1`` it reads."""
+        return max(self.warmup_frames, history + 1)
+
+
+def warmup_frame_count(warmup_s: float, frame_interval_s: float) -> int:
+    """Frames of a warm-up of ``warmup_s`` seconds, frame 0 included."""
+    return int(round(warmup_s / frame_interval_s)) + 1
+
 
 @dataclass
 class RolloutResult:
@@ -172,7 +181,7 @@ def rollout_soil(simulator: LearnedSimulator, histories: list[np.ndarray], frict
     length = simulator.settings.history + 1
     histories = [np.asarray(h, dtype=np.float32) for h in histories]
     # a warm-up longer than the MPM frames given (or than the run) is all of them
-    warmup = min(max(settings.warmup_frames, length), frames, *(h.shape[0] for h in histories))
+    warmup = min(settings.handover(simulator.settings.history), frames, *(h.shape[0] for h in histories))
     offset = warmup - length
     starts = [h[offset:warmup] for h in histories]
     types = [np.full(h.shape[1], SOIL, dtype=np.int64) for h in histories]

@@ -31,7 +31,7 @@ import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
 
 from rgns.gns.data import WindowSampler
-from rgns.gns.rollout import RolloutSettings, rollout_soil
+from rgns.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
 from rgns.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, OneStepLoss, random_walk_noise
 from rgns.metrics import runout_metrics
 
@@ -83,7 +83,7 @@ def settings_from_config(section: dict[str, Any], cell_size_m: float,
 
 def warmup_frames(config: dict[str, Any]) -> int:
     """Frames of MPM before the GNS takes over (config montecarlo.rollout.warmup_s)."""
-    return int(round(config["montecarlo"]["rollout"]["warmup_s"] / config["mpm"]["frame_interval_s"])) + 1
+    return warmup_frame_count(config["montecarlo"]["rollout"]["warmup_s"], config["mpm"]["frame_interval_s"])
 
 
 def learning_rate(settings: TrainSettings, step: int) -> float:

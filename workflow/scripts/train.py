@@ -3,6 +3,7 @@ import json
 from pathlib import Path
 
 from rgns.gns.evaluate import evaluate
+from rgns.gns.rollout import warmup_frame_count
 from rgns.gns.train import load_simulator, settings_from_config, train
 from rgns.logsetup import log_to_file
 from rgns.plots import plot_learning_curve
@@ -10,7 +11,7 @@ from rgns.plots import plot_learning_curve
 log = log_to_file(snakemake.log[0])
 params = snakemake.params
 model, settings = settings_from_config(params.gns, params.cell_size_m,
-                                       int(round(params.warmup_s / params.frame_interval_s)) + 1)
+                                       warmup_frame_count(params.warmup_s, params.frame_interval_s))
 out_dir = Path(snakemake.output.model).parent
 summary = train(model, settings, snakemake.input.train, snakemake.input.valid, out_dir, snakemake.output.model,
                 init_model=snakemake.input.init[0] if snakemake.input.init else None)
