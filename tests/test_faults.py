@@ -119,14 +119,19 @@ def test_a_truncated_dataset_stops_training_naming_the_file_and_keeps_the_mpm_re
 
 
 def test_a_corrupt_model_file_stops_the_monte_carlo_naming_it(copied):
+    """A changed model is validated again before the Monte Carlo may use it (the gate): the run
+    stops there, naming the file, and no Monte Carlo chunk runs."""
     workdir, config = copied
     (workdir / "results" / "model" / "gns.pt").write_bytes(b"not a model")
     target = "results/mc/case1/realizations.csv"
     table = (workdir / target).read_bytes()
+    chunk_logs = {path: path.read_text() for path in (workdir / "logs" / "mc_chunk" / "case1").glob("*.log")}
     result = snakemake(workdir, "--cores", "2", target, config=workdir / "config.yaml")
     assert result.returncode != 0
-    logs = "".join(path.read_text() for path in (workdir / "logs" / "mc_chunk" / "case1").glob("*.log"))
-    assert "gns.pt: not a usable GNS model file" in logs, logs
+    log = (workdir / "logs" / "validation_rollout" / "case1.log").read_text()
+    assert "gns.pt: not a usable GNS model file" in log, log
+    assert "Error in rule validation_rollout" in result.stdout + result.stderr
+    assert {path: path.read_text() for path in chunk_logs} == chunk_logs  # no chunk ran on the bad model
     assert (workdir / target).read_bytes() == table  # the last good table stays until a run replaces it
     assert scheduled(snakemake(workdir, "-n", target, config=workdir / "config.yaml")) == {"mc_chunk": 3, "mc_collect": 1}
 
