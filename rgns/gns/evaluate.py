@@ -12,8 +12,12 @@ from rgns.gns.simulator import LearnedSimulator
 @torch.no_grad()
 def evaluate(simulator: LearnedSimulator, packed_path: str, windows: int = 64, seed: int = 0,
              settings: RolloutSettings | None = None) -> dict:
-    """Mean one-step position error over random windows, and full-rollout errors per trajectory."""
+    """Mean one-step position error over random windows, and full-rollout errors per trajectory.
+
+    Each rollout starts from its first ``settings.handover(history)`` MPM frames (the Monte Carlo's
+    warm-up, at most the frames there are); the errors are averaged over every frame."""
     history = simulator.settings.history
+    settings = settings or RolloutSettings()
     sampler = WindowSampler(packed_path, history)
     rng = np.random.default_rng(seed)
     one_step = []
@@ -22,7 +26,8 @@ def evaluate(simulator: LearnedSimulator, packed_path: str, windows: int = 64, s
         predicted = simulator.next_positions(window.graph)
         one_step.append(float((predicted - window.targets[:, 0]).norm(dim=1).mean()))
     truths = [sampler.frames_of(k, 0, sampler.frames) for k in range(sampler.n_trajectories)]
-    results = rollout(simulator, [t[:history + 1] for t in truths], [t.numpy() for t in sampler.particle_type],
+    start = min(settings.handover(history), sampler.frames - 1)
+    results = rollout(simulator, [t[:start] for t in truths], [t.numpy() for t in sampler.particle_type],
                       [f.numpy() for f in sampler.tan_friction], sampler.frames, settings)
     per_trajectory = []
     for truth, result in zip(truths, results):

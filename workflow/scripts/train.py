@@ -3,7 +3,7 @@ import json
 from pathlib import Path
 
 from rgns.gns.evaluate import evaluate
-from rgns.gns.rollout import warmup_frame_count
+from rgns.gns.rollout import RolloutSettings, warmup_frame_count
 from rgns.gns.train import load_simulator, settings_from_config, train
 from rgns.logsetup import log_to_file
 from rgns.plots import plot_learning_curve
@@ -16,7 +16,9 @@ out_dir = Path(snakemake.output.model).parent
 summary = train(model, settings, snakemake.input.train, snakemake.input.valid, out_dir, snakemake.output.model,
                 init_model=snakemake.input.init[0] if snakemake.input.init else None)
 plot_learning_curve(snakemake.output.history, snakemake.output.curve)
-evaluation = evaluate(load_simulator(snakemake.output.model, settings.device), snakemake.input.valid) | summary
+handover = RolloutSettings(warmup_frames=settings.selection_warmup_frames)
+evaluation = evaluate(load_simulator(snakemake.output.model, settings.device), snakemake.input.valid,
+                      settings=handover) | summary
 Path(snakemake.output.evaluation).write_text(json.dumps(evaluation, indent=2) + "\n")
 log.info("trained %d steps in %.0f s, kept step %d; validation one-step error %.4g m, rollout mean error %.4g m",
          summary["steps"], summary["wall_s"], summary["selected_step"], evaluation["one_step_error_m"],
