@@ -1,0 +1,164 @@
+"""Multi-fidelity Monte Carlo: many cheap realizations, a few of them also run accurately.
+
+The control-variate estimator of Peherstorfer, Willcox & Gunzburger (2016, "Optimal model
+management for multifidelity Monte Carlo estimation") for two models: with the high-fidelity
+values ``h`` of the first n realizations and the low-fidelity values ``l`` of all N (the first n
+paired with ``h``, same realization, same field),
+
+    mu = mean(h) + alpha * (mean(l over N) - mean(l over n)),   alpha = cov(h, l) / var(l)
+
+is unbiased for the high-fidelity mean whatever the low-fidelity model's bias (up to the O(1/n)
+bias of the estimated weight), with a variance that falls with the correlation of the two. The
+interval is a stratified bootstrap (scipy.stats.bootstrap over the paired and the unpaired
+realizations), so it carries the uncertainty of the weight. Every quantity is a mean: an
+exceedance probability is the mean of an indicator 1[R > r].
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+RESAMPLES = 2000
+
+
+class MultiFidelityError(ValueError):
+    """Inputs that cannot make a multi-fidelity estimate."""
+
+
+@dataclass
+class ControlVariateEstimate:
+    """Per quantity (arrays of the quantities' shape): the corrected estimate and its interval,
+    the plain high-fidelity mean of the pairs, the plain low-fidelity mean of all N, the weight,
+    the paired correlation and the estimated bias of the cheap route (low minus high over the pairs)."""
+
+    estimate: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    high_mean: np.ndarray
+    low_mean: np.ndarray
+    weight: np.ndarray
+    correlation: np.ndarray
+    bias: np.ndarray
+    n_paired: int
+    n_low: int
+    confidence: float
+
+
+def _weight(high: np.ndarray, low: np.ndarray, axis: int) -> np.ndarray:
+    """cov(h, l) / var(l) along ``axis`` (0 where the low-fidelity values do not vary)."""
+    dl = low - low.mean(axis=axis, keepdims=True)
+    dh = high - high.mean(axis=axis, keepdims=True)
+    var = (dl * dl).sum(axis=axis)
+    cov = (dh * dl).sum(axis=axis)
+    return np.divide(cov, var, out=np.zeros_like(cov), where=var > 1e-12 * (1.0 + np.abs(cov)))
+
+
+def _combine(high_p: np.ndarray, low_p: np.ndarray, low_u: np.ndarray | None, axis: int) -> np.ndarray:
+    """The control-variate estimate from paired (h, l) and unpaired l samples along ``axis``."""
+    n = high_p.shape[axis]
+    total = low_p.sum(axis=axis) + (low_u.sum(axis=axis) if low_u is not None else 0.0)
+    count = n + (low_u.shape[axis] if low_u is not None else 0)
+    return high_p.mean(axis=axis) + _weight(high_p, low_p, axis) * (total / count - low_p.mean(axis=axis))
+
+
+def control_variate(high: np.ndarray, low: np.ndarray, confidence: float = 0.95, resamples: int = RESAMPLES,
+                    seed: int = 0) -> ControlVariateEstimate:
+    """Estimate the high-fidelity mean of each quantity from ``high`` [n, ...] and ``low`` [N, ...].
+
+    ``low[:n]`` are the same realizations as ``high``; n ≥ 2 pairs are needed for the weight."""
+    high, low = np.asarray(high, dtype=float), np.asarray(low, dtype=float)
+    n, big_n = high.shape[0], low.shape[0]
+    if high.shape[1:] != low.shape[1:]:
+        raise MultiFidelityError(f"high- and low-fidelity quantities differ in shape: {high.shape[1:]} vs {low.shape[1:]}")
+    if n < 2 or big_n < n:
+        raise MultiFidelityError(f"need at least 2 paired realizations and no more than the {big_n} low-fidelity "
+                                 f"ones, got {n}")
+    if not (np.isfinite(high).all() and np.isfinite(low).all()):
+        raise MultiFidelityError("high- or low-fidelity values hold NaN or infinity (a diverged run?)")
+    if not 0.0 < confidence < 1.0:
+        raise MultiFidelityError(f"confidence must lie in (0, 1), got {confidence}")
+    shape = high.shape[1:]
+    h2, l2 = high.reshape(n, -1), low.reshape(big_n, -1)
+
+    def statistic(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
+        pick = indices[0].astype(int)  # [..., n]
+        low_u = l2[n + indices[1].astype(int)] if len(indices) > 1 else None
+        value = _combine(h2[pick], l2[pick], low_u, axis=-2)  # [..., K]
+        return np.moveaxis(value, -1, 0)
+
+    samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
+    estimate = _combine(h2, l2[:n], l2[n:] if big_n > n else None, axis=0)
+    boot = stats.bootstrap(samples, statistic, paired=False, vectorized=True, n_resamples=resamples,
+                           confidence_level=confidence, method="percentile", batch=max(1, 4_000_000 // max(1, n * h2.shape[1])),
+                           random_state=np.random.default_rng(seed))
+    lower, upper = boot.confidence_interval
+    lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)  # a degenerate bootstrap: the point
+    dh, dl = h2 - h2.mean(0), l2[:n] - l2[:n].mean(0)
+    denominator = np.sqrt((dh * dh).sum(0) * (dl * dl).sum(0))
+    correlation = np.divide((dh * dl).sum(0), denominator, out=np.full(h2.shape[1], np.nan), where=denominator > 0)
+    return ControlVariateEstimate(
+        estimate=estimate.reshape(shape), lower=np.asarray(lower).reshape(shape), upper=np.asarray(upper).reshape(shape),
+        high_mean=h2.mean(0).reshape(shape), low_mean=l2.mean(0).reshape(shape),
+        weight=_weight(h2, l2[:n], axis=0).reshape(shape), correlation=correlation.reshape(shape),
+        bias=(l2[:n].mean(0) - h2.mean(0)).reshape(shape), n_paired=n, n_low=big_n, confidence=confidence)
+
+
+def exceedance_indicators(values: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
+    """[N, T] indicators 1[value > threshold]: their means are the exceedance probabilities."""
+    return (np.asarray(values, dtype=float)[:, None] > np.asarray(thresholds, dtype=float)[None, :]).astype(float)
+
+
+@dataclass
+class Allocation:
+    """How many realizations to run at each fidelity (MFMC optimal allocation for two models)."""
+
+    n_high: int
+    n_low: int
+    ratio: float  # n_low / n_high before rounding
+    variance: float  # of the estimate
+    cost: float  # n_high * cost_high + n_low * cost_low
+    plain_cost: float  # high-fidelity-only cost to the same variance
+    speedup: float  # plain_cost / cost
+
+
+def optimal_ratio(cost_high: float, cost_low: float, correlation: float) -> float:
+    """N / n minimising the variance at a fixed cost: sqrt(w rho^2 / (1 - rho^2)), w = cost_high / cost_low
+    (at least 1; Peherstorfer et al. 2016, Theorem 3.4)."""
+    if cost_high <= 0 or cost_low <= 0:
+        raise MultiFidelityError(f"costs must be positive, got high {cost_high} and low {cost_low}")
+    rho2 = min(float(correlation) ** 2, 1.0 - 1e-12)
+    return max(1.0, math.sqrt(cost_high / cost_low * rho2 / (1.0 - rho2)))
+
+
+def variance_factor(ratio: float, correlation: float) -> float:
+    """Variance of the estimate with n pairs over that of n high-fidelity runs alone: 1 - (1 - 1/r) rho^2."""
+    return 1.0 - (1.0 - 1.0 / ratio) * correlation ** 2
+
+
+def allocate(cost_high: float, cost_low: float, correlation: float, std_high: float, half_width: float,
+             confidence: float = 0.95, cap_high: int | None = None) -> Allocation:
+    """Realizations at each fidelity for a target interval half-width (normal approximation),
+    from the measured costs (s per realization), paired correlation and high-fidelity std.
+    ``cap_high`` bounds the paired runs (the half-width is then not reached)."""
+    if half_width <= 0:
+        raise MultiFidelityError(f"the target half-width must be positive, got {half_width}")
+    z = stats.norm.ppf(0.5 + confidence / 2.0)
+    target = (half_width / z) ** 2
+    ratio = optimal_ratio(cost_high, cost_low, correlation)
+    n_high = max(2, math.ceil(std_high ** 2 * variance_factor(ratio, correlation) / target))
+    if cap_high is not None:
+        n_high = min(n_high, cap_high)
+    n_low = max(n_high, math.ceil(ratio * n_high))
+    variance = std_high ** 2 / n_high * variance_factor(n_low / n_high, correlation)
+    cost = n_high * cost_high + n_low * cost_low
+    plain_cost = std_high ** 2 / variance * cost_high
+    return Allocation(n_high, n_low, ratio, variance, cost, plain_cost, plain_cost / cost)
+
+
+def speedup(cost_high: float, cost_low: float, correlation: float) -> float:
+    """Cost of plain high-fidelity MC over that of optimally allocated MFMC at equal variance."""
+    ratio = optimal_ratio(cost_high, cost_low, correlation)
+    return 1.0 / ((1.0 + ratio * cost_low / cost_high) * variance_factor(ratio, correlation))
