@@ -1,11 +1,13 @@
 """How well a trained simulator reproduces a packed set: one-step and full-rollout position errors."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import torch
 
 from rgns.gns.data import WindowSampler
-from rgns.gns.rollout import RolloutSettings, rollout
+from rgns.gns.rollout import RolloutSettings, rollout_soil
 from rgns.gns.simulator import LearnedSimulator
 
 
@@ -14,8 +16,8 @@ def evaluate(simulator: LearnedSimulator, packed_path: str, windows: int = 64, s
              settings: RolloutSettings | None = None) -> dict:
     """Mean one-step position error over random windows, and full-rollout errors per trajectory.
 
-    Each rollout starts from its first ``settings.handover(history)`` MPM frames (the Monte Carlo's
-    warm-up, at most the frames there are); the errors are averaged over every frame."""
+    Each rollout hands over from MPM after ``settings.handover(history)`` frames, as the Monte Carlo
+    does (at most the frames there are; soil-only sets); the errors are averaged over every frame."""
     history = simulator.settings.history
     settings = settings or RolloutSettings()
     sampler = WindowSampler(packed_path, history)
@@ -26,9 +28,8 @@ def evaluate(simulator: LearnedSimulator, packed_path: str, windows: int = 64, s
         predicted = simulator.next_positions(window.graph)
         one_step.append(float((predicted - window.targets[:, 0]).norm(dim=1).mean()))
     truths = [sampler.frames_of(k, 0, sampler.frames) for k in range(sampler.n_trajectories)]
-    start = min(settings.handover(history), sampler.frames - 1)
-    results = rollout(simulator, [t[:start] for t in truths], [t.numpy() for t in sampler.particle_type],
-                      [f.numpy() for f in sampler.tan_friction], sampler.frames, settings)
+    friction = [np.degrees(np.arctan(f.numpy())) for f in sampler.tan_friction]
+    results = rollout_soil(simulator, truths, friction, sampler.frames, replace(settings, keep="all"))
     per_trajectory = []
     for truth, result in zip(truths, results):
         error = np.linalg.norm(result.positions - truth, axis=2).mean(axis=1)  # [T]
