@@ -10,7 +10,7 @@ same field) for the full 10 s, and is measured against one reference: the embedd
 cells and cfl 0.1 with early stop off. Error of a metric (R, V, I) = mean absolute difference
 from the reference over the realizations, in % of the reference's range over them; "error" is the
 mean of the three. Wall time per realization is the batch's wall time over its size (one CPU
-thread; a GNS rollout includes its 6-frame MPM warm-up).
+thread; a GNS rollout includes its MPM warm-up, ``montecarlo.rollout.warmup_s``).
 
 * MPM: cell size 2 / 1 / 0.5 m, cfl 0.1 / 0.2 / 0.5, early stop on / off.
 * GNS: the shipped model (rgns/models/gns.pt, or ``--model``) with rest-skipping, early stop, both
