@@ -152,6 +152,13 @@ def _montecarlo_errors(config: dict[str, Any]) -> list[str]:
     if section["chunk_size"] % section["batch_size"]:
         errors.append(f"config key 'montecarlo.chunk_size' = {section['chunk_size']!r}: not a multiple of "
                       f"montecarlo.batch_size = {section['batch_size']!r} (batches must not straddle chunks)")
+    fidelity = section["fidelity"]
+    if fidelity["paired"] and not 2 <= fidelity["paired"] <= section["realizations"]:
+        errors.append(f"config key 'montecarlo.fidelity.paired' = {fidelity['paired']!r}: 0 (off) or between 2 "
+                      f"and montecarlo.realizations = {section['realizations']}")
+    if fidelity["paired"] and fidelity["high_cell_size_m"] >= config["mesh"]["cell_size_m"]:
+        errors.append(f"config key 'montecarlo.fidelity.high_cell_size_m' = {fidelity['high_cell_size_m']!r}: "
+                      f"must be finer than mesh.cell_size_m = {config['mesh']['cell_size_m']!r}")
     return errors
 
 

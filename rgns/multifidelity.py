@@ -48,16 +48,19 @@ class ControlVariateEstimate:
 
 
 def _weight(high: np.ndarray, low: np.ndarray, axis: int) -> np.ndarray:
-    """cov(h, l) / var(l) along ``axis`` (0 where the low-fidelity values do not vary)."""
+    """cov(h, l) / var(l) along ``axis``; 1 where the paired low-fidelity values do not vary (a tail
+    indicator that no pair reaches): the cheap route's value then stands, shifted by the paired
+    difference, instead of the pairs alone throwing the N cheap runs away (any fixed weight is unbiased)."""
     dl = low - low.mean(axis=axis, keepdims=True)
     dh = high - high.mean(axis=axis, keepdims=True)
     var = (dl * dl).sum(axis=axis)
     cov = (dh * dl).sum(axis=axis)
-    return np.divide(cov, var, out=np.zeros_like(cov), where=var > 1e-12 * (1.0 + np.abs(cov)))
+    return np.divide(cov, var, out=np.ones_like(cov), where=var > 1e-12 * (1.0 + np.abs(cov)))
 
 
-def _combine(high_p: np.ndarray, low_p: np.ndarray, low_u: np.ndarray | None, axis: int) -> np.ndarray:
-    """The control-variate estimate from paired (h, l) and unpaired l samples along ``axis``."""
+def point_estimate(high_p: np.ndarray, low_p: np.ndarray, low_u: np.ndarray | None, axis: int) -> np.ndarray:
+    """The control-variate estimate from paired (h, l) and unpaired l samples along ``axis``
+    (the weight estimated from the pairs; no interval)."""
     n = high_p.shape[axis]
     total = low_p.sum(axis=axis) + (low_u.sum(axis=axis) if low_u is not None else 0.0)
     count = n + (low_u.shape[axis] if low_u is not None else 0)
@@ -86,11 +89,11 @@ def control_variate(high: np.ndarray, low: np.ndarray, confidence: float = 0.95,
     def statistic(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
         pick = indices[0].astype(int)  # [..., n]
         low_u = l2[n + indices[1].astype(int)] if len(indices) > 1 else None
-        value = _combine(h2[pick], l2[pick], low_u, axis=-2)  # [..., K]
+        value = point_estimate(h2[pick], l2[pick], low_u, axis=-2)  # [..., K]
         return np.moveaxis(value, -1, 0)
 
     samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
-    estimate = _combine(h2, l2[:n], l2[n:] if big_n > n else None, axis=0)
+    estimate = point_estimate(h2, l2[:n], l2[n:] if big_n > n else None, axis=0)
     boot = stats.bootstrap(samples, statistic, paired=False, vectorized=True, n_resamples=resamples,
                            confidence_level=confidence, method="percentile", batch=max(1, 4_000_000 // max(1, n * h2.shape[1])),
                            random_state=np.random.default_rng(seed))

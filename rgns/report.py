@@ -91,6 +91,53 @@ def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
                figure(files["convergence.png"], caption("convergence", case=case)))
     report.add(f"Hazard: {case} — zoning", table(pd.DataFrame(zoning["zones"]), 2),
                figure(files["zoning.png"], caption("zoning", case=case)))
+    if "multifidelity.json" in files:
+        multifidelity_section(report, case, files)
+
+
+def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
+    """One sentence on the mean runout, cheap against corrected, and whether the interval excludes the cheap mean."""
+    r = record["means"]["runout_m"]
+    excluded = not r["lower"] <= r["low_mean"] <= r["upper"]
+    return (f"{case}: mean runout {r['low_mean']:.2f} m by the Monte Carlo's simulator, {r['estimate']:.2f} m "
+            f"[{r['lower']:.2f}, {r['upper']:.2f}] corrected towards the MPM at {record['high_cell_size_m']:g} m cells "
+            f"over {record['n_paired']} paired realizations (cheap-route bias on the pairs {r['bias']:+.2f} m, "
+            f"correlation {r['correlation']:.2f})" + ("; the uncorrected hazard below is biased by about that much"
+                                                     if excluded else "") + "."), excluded
+
+
+def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> None:
+    """The corrected means, exceedance distances and zones beside the uncorrected ones, costs, allocation."""
+    record = json.loads(files["multifidelity.json"].read_text())
+    means = pd.DataFrame([{"quantity": f"mean {key}", "cheap route": m["low_mean"], "corrected": m["estimate"],
+                           "lower": m["lower"], "upper": m["upper"], "bias on the pairs": m["bias"],
+                           "correlation": m["correlation"]} for key, m in record["means"].items()])
+    distances = pd.DataFrame([{"metric": key, "probability": p, "cheap route (m)": d["uncorrected"],
+                               "corrected (m)": d["corrected"]}
+                              for key, curve in record["exceedance"].items() for p, d in curve["distances"].items()])
+    cost, allocation = record["cost"], record["allocation"]
+    parts = [paragraph(_runout_line(case, record)[0]), table(means, 3), table(distances, 2),
+             paragraph(f"Cost per realization: cheap route {cost['low_s']:.2f} s, accurate MPM {cost['high_s']:.2f} s "
+                       f"({record['n_low']} and {record['n_paired']} realizations). With the runout correlation "
+                       f"{allocation['correlation_runout']:.2f}, the optimal ratio of cheap to paired runs is "
+                       f"{allocation['optimal_ratio']:.1f} and multi-fidelity reaches a given error "
+                       f"{allocation['speedup_at_equal_error']:.2f}x faster than the accurate MPM alone.")]
+    if "target" in allocation:
+        target = allocation["target"]
+        parts.append(paragraph(f"For a {record['confidence']:.0%} half-width of {target['half_width_m']:g} m on the "
+                               f"mean runout: {target['n_high']} paired and {target['n_low']} cheap realizations "
+                               f"({target['cost']:.0f} s against {target['plain_cost']:.0f} s by the accurate MPM alone)."))
+    parts += [table(pd.DataFrame(record["zoning"]["zones_corrected"]), 2),
+              figure(files["multifidelity.png"], caption("multifidelity", case=case))]
+    report.add(f"Hazard: {case} — multi-fidelity correction", *parts)
+
+
+def fidelity_summary(report: Report, hazard: dict[str, dict[str, Path]]) -> None:
+    """At the top: how far the Monte Carlo's simulator is from the accurate MPM, where that was measured."""
+    lines = [paragraph(*_runout_line(case, json.loads(files["multifidelity.json"].read_text())))
+             for case, files in hazard.items() if "multifidelity.json" in files]
+    if lines:
+        report.add("Multi-fidelity check", *lines)
 
 
 def gate_section(report: Report, gate: dict[str, dict[str, Any]], cases: list[str],
@@ -119,6 +166,7 @@ def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], 
     """The whole page: the validation gate's verdict first, then configuration, model, validation, hazard."""
     report = Report(title)
     gate_section(report, gate or {}, list(hazard), validation_table)
+    fidelity_summary(report, hazard)
     report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>")
     report.add("Scenes", *(figure(path, caption("scenes", set=name)) for name, path in scenes.items()))
     origin = ("the model shipped with rgns (card: rgns/models/card.md), " if evaluation.get("shipped") else "")

@@ -1,5 +1,6 @@
 # Helpers shared by the rule files: which realizations exist, and the config slice each rule
 # gets through params (so a config change re-runs only the rules that read the changed keys).
+import copy
 from dataclasses import asdict
 
 from rgns.fields import FIELD_KEYS
@@ -108,6 +109,8 @@ def chunk_of(wildcards):
 # Test cases, Monte Carlo and hazard: every set other than train/valid is a test case.
 TEST_CASES = [name for name in SETS if name not in ("train", "valid")]
 MC_CASES = list(config["montecarlo"]["cases"])
+# the multi-fidelity correction's outputs per case, when montecarlo.fidelity.paired > 0
+MULTIFIDELITY_FILES = ["multifidelity.json", "multifidelity.png"] if config["montecarlo"]["fidelity"]["paired"] else []
 # the sets a run simulates: with the shipped model no training set is run
 RUN_SETS = TEST_CASES if config["gns"]["model"] == "shipped" else SETS
 
@@ -142,6 +145,50 @@ def mc_run_params(wildcards):
                                                      "rollout", "screen")},
         "mpm": config["mpm"],
         "metrics": config["metrics"],
+    }
+
+
+def mc_paired_chunk_ids(case):
+    """Chunk ids holding the first montecarlo.fidelity.paired realizations."""
+    section = config["montecarlo"]
+    return [f"{k:03d}" for k in range(-(-section["fidelity"]["paired"] // section["chunk_size"]))]
+
+
+def mc_paired_chunk_indices(wildcards):
+    """Realization indices of one paired chunk: the chunk's, among the first `paired`."""
+    paired = config["montecarlo"]["fidelity"]["paired"]
+    return [i for i in mc_chunk_indices(wildcards) if i < paired]
+
+
+def mc_paired_chunks(wildcards):
+    return [f"results/mc/{wildcards.case}/paired/chunk_{k}.csv" for k in mc_paired_chunk_ids(wildcards.case)]
+
+
+def mc_paired_case_params(wildcards):
+    """A case drawn at the accurate mesh: the same geometry, and the field on the cheap run's grid."""
+    accurate = copy.deepcopy(config)
+    accurate["random_field"]["grid_spacing_m"] = (config["random_field"]["grid_spacing_m"]
+                                                  or config["mesh"]["cell_size_m"])
+    accurate["mesh"]["cell_size_m"] = config["montecarlo"]["fidelity"]["high_cell_size_m"]
+    return asdict(CaseInputs.from_config(accurate, wildcards.case))
+
+
+def mc_paired_run_params(wildcards):
+    """The Monte Carlo settings with the embedded MPM as simulator."""
+    params = mc_run_params(wildcards)
+    params["montecarlo"]["simulator"] = "mpm"
+    return params
+
+
+def multifidelity_params(wildcards):
+    """What the correction needs: the zoning profile and thresholds, the exceedance probabilities, the
+    chunks' benchmark files (the cost of each route)."""
+    hazard = config["hazard"]
+    case = wildcards.case
+    return zoning_params(wildcards) | config["montecarlo"]["fidelity"] | {
+        "exceedance_probabilities": hazard["exceedance_probabilities"],
+        "low_benchmarks": [f"results/mc/{case}/chunk_{k}.benchmark.tsv" for k in mc_chunk_ids(case)],
+        "high_benchmarks": [f"results/mc/{case}/paired/chunk_{k}.benchmark.tsv" for k in mc_paired_chunk_ids(case)],
     }
 
 

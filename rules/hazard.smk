@@ -51,7 +51,7 @@ rule report:
         + expand("results/report/validation/energy_{case}.png", case=TEST_CASES),
         hazard=expand("results/report/{case}/{name}", case=MC_CASES,
                       name=["exceedance.png", "exceedance.json", "convergence.png", "convergence.json",
-                            "zoning.png", "zoning.json"]),
+                            "zoning.png", "zoning.json"] + MULTIFIDELITY_FILES),
     output:
         "results/report/report.html",
     params:

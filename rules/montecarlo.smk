@@ -11,6 +11,8 @@ rule mc_chunk:
         indices=mc_chunk_indices,
     log:
         "logs/mc_chunk/{case}/chunk_{chunk}.log",
+    benchmark:
+        "results/mc/{case}/chunk_{chunk}.benchmark.tsv"
     threads: config["montecarlo"]["threads"]
     resources:
         mem_mb=2000,
@@ -59,3 +61,64 @@ rule mc_collect:
         "../envs/rgns.yaml"
     script:
         "../workflow/scripts/mc_collect.py"
+
+
+rule mc_paired_chunk:
+    """The chunk's realizations among the first montecarlo.fidelity.paired, by the MPM at the accurate
+    mesh (the same geometry and field): the high-fidelity half of the multi-fidelity pairs."""
+    input:
+        model=[],
+        gate=[],
+    output:
+        "results/mc/{case}/paired/chunk_{chunk}.csv",
+    params:
+        inputs=mc_paired_case_params,
+        run=mc_paired_run_params,
+        indices=mc_paired_chunk_indices,
+    log:
+        "logs/mc_paired_chunk/{case}/chunk_{chunk}.log",
+    benchmark:
+        "results/mc/{case}/paired/chunk_{chunk}.benchmark.tsv"
+    threads: config["montecarlo"]["threads"]
+    resources:
+        mem_mb=4000,
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/mc_chunk.py"
+
+
+rule mc_paired_collect:
+    """Concatenate a case's paired chunk tables."""
+    input:
+        mc_paired_chunks,
+    output:
+        "results/mc/{case}/paired.csv",
+    params:
+        realizations=config["montecarlo"]["fidelity"]["paired"],
+        chunk_size=config["montecarlo"]["chunk_size"],
+    log:
+        "logs/mc_paired_collect/{case}.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/mc_collect.py"
+
+
+rule multifidelity:
+    """A case's exceedance curves, zoning and means corrected towards the accurate MPM (control variates)."""
+    input:
+        realizations="results/mc/{case}/realizations.csv",
+        paired="results/mc/{case}/paired.csv",
+    output:
+        json="results/report/{case}/multifidelity.json",
+        figure=report("results/report/{case}/multifidelity.png", caption="../docs/captions/multifidelity.rst",
+                      category="Hazard"),
+    params:
+        multifidelity_params,
+    log:
+        "logs/multifidelity/{case}.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/multifidelity.py"

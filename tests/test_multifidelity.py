@@ -85,11 +85,19 @@ def test_reports_the_bias_and_correlation_of_the_cheap_route():
     assert result.weight[0] == pytest.approx(RHO / 0.8, rel=0.1)  # cov(h, l) / var(l) = 0.8 rho / 0.64
 
 
-def test_a_quantity_that_never_varies_gets_no_correction_and_a_point_interval():
+def test_a_quantity_that_never_varies_gets_a_point_interval():
     h, low = np.zeros((10, 1)), np.zeros((50, 1))
     result = control_variate(h, low, resamples=99)
     assert result.estimate[0] == 0.0 and result.lower[0] == 0.0 and result.upper[0] == 0.0
-    assert result.weight[0] == 0.0
+
+
+def test_a_tail_no_pair_reaches_keeps_the_cheap_runs():
+    """P(R > r) where none of the pairs exceeds r but some cheap runs do: weight 1, the cheap estimate."""
+    h, low = np.zeros((10, 1)), np.zeros((100, 1))
+    low[[20, 50, 70]] = 1.0
+    result = control_variate(h, low, resamples=99)
+    assert result.weight[0] == 1.0
+    assert result.estimate[0] == pytest.approx(0.03)
 
 
 def test_allocation_follows_the_mfmc_optimum():

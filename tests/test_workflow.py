@@ -36,7 +36,8 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
                     "validation_rollout": len(cases), "validate": 1,
                     "mc_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
                     "mc_mean_field": mc_cases, "mc_collect": mc_cases, "exceedance": mc_cases, "zoning": mc_cases,
-                    "report": 1, "hazard_map": 1}
+                    "mc_paired_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
+                    "mc_paired_collect": mc_cases, "multifidelity": mc_cases, "report": 1, "hazard_map": 1}
     assert min(sizes) >= 16  # enough realizations per test case for R² to mean something
 
 
@@ -132,9 +133,16 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     zoning = json.loads((results / "report" / "case1" / "zoning.json").read_text())
     assert zoning["zones"][0]["x_from_m"] == 0.0 and zoning["zones"][-1]["x_to_m"] == config["domain"]["length_m"]
     page = (results / "report" / "report.html").read_text()
-    for heading in ("Validation against MPM", "Hazard: case1 — exceedance", "Hazard: case1 — zoning"):
+    for heading in ("Validation against MPM", "Hazard: case1 — exceedance", "Hazard: case1 — zoning",
+                    "Multi-fidelity check", "Hazard: case1 — multi-fidelity correction"):
         assert heading in page
-    assert page.count("<img") == 3 + 1 + 3 + 3  # scenes, learning curve, validation, hazard
+    assert page.count("<img") == 3 + 1 + 3 + 4  # scenes, learning curve, validation, hazard
+    # the first `paired` realizations again by the MPM at 0.5 m cells: the same field, a finer mesh
+    paired = read_csv(results / "mc" / "case1" / "paired.csv")
+    assert list(paired["index"]) == [0, 1] and (paired["n_particles"] == 4 * 120).all()
+    multifidelity = json.loads((results / "report" / "case1" / "multifidelity.json").read_text())
+    assert (multifidelity["n_paired"], multifidelity["n_low"]) == (2, 6)
+    assert multifidelity["cost"]["high_s"] > multifidelity["cost"]["low_s"] > 0
 
 
 def test_changing_a_zoning_threshold_reruns_only_zoning_and_the_report(built, tmp_path):
@@ -142,7 +150,7 @@ def test_changing_a_zoning_threshold_reruns_only_zoning_and_the_report(built, tm
     changed = copy.deepcopy(config)
     changed["hazard"] = {"zoning_thresholds": [0.8, 0.5, 0.1, 0.01]}
     jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", changed)))
-    assert jobs == {"zoning": 1, "report": 1, "hazard_map": 1}
+    assert jobs == {"zoning": 1, "multifidelity": 1, "report": 1, "hazard_map": 1}  # the corrected zones too
 
 
 def test_deleting_one_monte_carlo_chunk_reruns_only_that_chunk_and_reproduces_it(built):
@@ -156,7 +164,8 @@ def test_deleting_one_monte_carlo_chunk_reruns_only_that_chunk_and_reproduces_it
                  *(results / "report" / "case1").iterdir()]:
         path.unlink()
     jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=workdir / "config.yaml"))
-    assert jobs == {"mc_chunk": 1, "mc_collect": 1, "exceedance": 1, "zoning": 1, "report": 1, "hazard_map": 1}
+    assert jobs == {"mc_chunk": 1, "mc_collect": 1, "exceedance": 1, "zoning": 1, "multifidelity": 1, "report": 1,
+                    "hazard_map": 1}
     result = snakemake(workdir, "--cores", "2", "hazard_map", config=workdir / "config.yaml")
     assert result.returncode == 0, result.stderr
     assert chunk.read_bytes() == before

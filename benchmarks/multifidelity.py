@@ -1,0 +1,212 @@
+"""Multi-fidelity against plain high-fidelity Monte Carlo at equal wall time, on the same realizations.
+
+    python benchmarks/multifidelity.py --realizations 96 --workers 2   # runs, then analyses
+    python benchmarks/multifidelity.py --analyse       # again from multifidelity.json (+ mc_routes.json's GNS)
+
+A pool of default-config case-1 realizations (drawn as ``rgns.montecarlo`` draws them, the field
+on the 1 m grid so every mesh samples the same field) is run by the embedded MPM at 0.5 m cells
+(the high fidelity: 1.2 % of range from the 0.5 m / cfl 0.1 reference in ``suite.md``) and by the
+cheap routes: the MPM at 1 m (the default) and at 2 m, and, when ``benchmarks/results/mc_routes.json``
+holds them for the same realizations, the shipped GNS. Wall time per realization is measured per
+route (one thread per worker; each chunk runs every MPM route in turn, so load weighs on each alike).
+
+The pool is the population: its high-fidelity mean of each quantity Q (mean R; P(R > r) at r =
+the pool's 50 % and 10 % exceedance distances) is the reference. At equal wall time B, plain MC
+draws B / c_H realizations with replacement; multi-fidelity MC draws n pairs and N = r n cheap
+runs (r the MFMC optimal ratio from the pool's correlation and the measured costs) with
+n c_H + N c_L = B, and combines them with ``rgns.multifidelity.control_variate``. The mean squared
+error over 2,000 draws per budget, plain over multi-fidelity, is the speed-up at equal error (both
+errors scale as 1/B). Writes ``benchmarks/results/multifidelity.json``, ``multifidelity.md`` and
+``multifidelity.png``.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import platform
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+
+from rgns.config import load_config  # noqa: E402
+from rgns.metrics import MetricSettings  # noqa: E402
+from rgns.montecarlo import measure, simulate_mpm  # noqa: E402
+from rgns.multifidelity import optimal_ratio, point_estimate, speedup  # noqa: E402
+from rgns.realizations import FINISHED, CaseInputs, draw_realization  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+OUT = REPO / "benchmarks" / "results"
+HIGH = "MPM 0.5 m"
+MPM_ROUTES = {HIGH: 0.5, "MPM 1 m": 1.0, "MPM 2 m": 2.0}
+DRAWS = 2000
+
+
+def run_chunk(indices: list[int]) -> dict[str, tuple[list[dict], float]]:
+    """Per MPM route: the rows of realizations ``indices`` and their wall time (the routes one after
+    another on the same realizations, so the machine's load weighs on each alike)."""
+    torch.set_num_threads(1)
+    base = load_config(REPO / "config" / "config.yaml")
+    out = {}
+    for name, cell_size_m in MPM_ROUTES.items():
+        config = copy.deepcopy(base)
+        config["mesh"]["cell_size_m"] = cell_size_m
+        config["random_field"]["grid_spacing_m"] = 1.0
+        inputs = CaseInputs.from_config(config, "case1")
+        batch = [draw_realization(inputs, i) for i in indices]
+        mpm = config["mpm"]
+        start = time.perf_counter()
+        simulated = simulate_mpm(batch, mpm, int(round(mpm["duration_s"] / mpm["frame_interval_s"])) + 1, keep="ends")
+        seconds = time.perf_counter() - start
+        rows = [measure(r, s, MetricSettings(**config["metrics"]), mpm["density_kg_m3"], mpm["frame_interval_s"],
+                        mpm["gravity_m_s2"]) for r, s in zip(batch, simulated)]
+        out[name] = ([{k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")} for row in rows],
+                     seconds)
+    return out
+
+
+def run_routes(n: int, workers: int) -> dict:
+    """Every MPM route over realizations 0..n-1, in chunks of 4 spread over ``workers`` processes."""
+    chunks = [list(range(i, min(i + 4, n))) for i in range(0, n, 4)]
+    with ProcessPoolExecutor(workers) as pool:
+        results = []
+        for done, result in enumerate(pool.map(run_chunk, chunks), start=1):
+            results.append(result)
+            print(f"chunk {done} of {len(chunks)} done", flush=True)
+    routes = {}
+    for name in MPM_ROUTES:
+        rows = [row for result in results for row in result[name][0]]
+        routes[name] = {"rows": rows, "s_per_realization": sum(result[name][1] for result in results) / n}
+        print(f"{name}: {routes[name]['s_per_realization']:.2f} s per realization", flush=True)
+    return routes
+
+
+def add_gns_route(routes: dict, n: int) -> None:
+    """The shipped GNS's rows of the same realizations, from ``mc_routes.json``, when it holds them."""
+    path = OUT / "mc_routes.json"
+    if path.exists():
+        record = json.loads(path.read_text())["routes"]["gns"]
+        if len(record["rows"]) >= n:
+            routes["GNS (shipped)"] = {"rows": record["rows"][:n], "s_per_realization": record["s_per_realization"]}
+
+
+def quantities(runout: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
+    """[N, 3]: R, 1[R > r50], 1[R > r10]."""
+    return np.column_stack([runout, (runout[:, None] > thresholds[None, :]).astype(float)])
+
+
+def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), seed: int = 0) -> dict:
+    """Plain high-fidelity against multi-fidelity MSE at equal wall time, per cheap route and quantity."""
+    routes = record["routes"]
+    ok = np.array([all(r["rows"][i]["status"] in FINISHED for r in routes.values())
+                   for i in range(record["n"])])
+    high_r = np.array([row["runout_m"] for row in routes[HIGH]["rows"]])[ok]
+    thresholds = np.quantile(high_r, [0.5, 0.9])
+    high_q = quantities(high_r, thresholds)
+    truth = high_q.mean(axis=0)
+    c_high = routes[HIGH]["s_per_realization"]
+    rng = np.random.default_rng(seed)
+    size = high_r.size
+    out = {"thresholds_m": thresholds.tolist(), "truth": truth.tolist(), "n_ok": int(ok.sum()), "cheap": {}}
+    for name, route in routes.items():
+        if name == HIGH:
+            continue
+        low_q = quantities(np.array([row["runout_m"] for row in route["rows"]])[ok], thresholds)
+        c_low = route["s_per_realization"]
+        correlation = [float(np.corrcoef(high_q[:, k], low_q[:, k])[0, 1]) if low_q[:, k].std() > 0 else 0.0
+                       for k in range(3)]
+        ratios = [optimal_ratio(c_high, c_low, rho) for rho in correlation]
+        result = {"s_per_realization": c_low, "correlation": correlation, "ratio": ratios,
+                  "bias": (low_q.mean(0) - truth).tolist(),
+                  "predicted_speedup": [speedup(c_high, c_low, rho) for rho in correlation], "budgets": []}
+        for budget in budgets_in_high_runs:
+            plain = np.array([high_q[rng.integers(0, size, budget)].mean(0) for _ in range(DRAWS)])
+            row = {"high_runs": budget, "n_pairs": [], "n_low": [], "mse_plain": ((plain - truth) ** 2).mean(0).tolist(),
+                   "mse_multi": []}
+            for k, ratio in enumerate(ratios):  # each quantity with its own optimal allocation
+                n_pairs = max(2, int(budget * c_high // (c_high + ratio * c_low)))
+                n_low = max(n_pairs, int((budget - n_pairs) * c_high // c_low))
+                multi = []
+                for _ in range(DRAWS):
+                    pick = rng.integers(0, size, n_low)
+                    multi.append(point_estimate(high_q[pick[:n_pairs], k], low_q[pick[:n_pairs], k],
+                                                low_q[pick[n_pairs:], k], axis=0))
+                row["n_pairs"].append(n_pairs)
+                row["n_low"].append(n_low)
+                row["mse_multi"].append(float(((np.array(multi) - truth[k]) ** 2).mean()))
+            row["speedup"] = (np.array(row["mse_plain"]) / np.array(row["mse_multi"])).tolist()
+            result["budgets"].append(row)
+        out["cheap"][name] = result
+    return out
+
+
+QUANTITY_NAMES = ("mean R", "P(R > r50)", "P(R > r10)")
+
+
+def markdown(record: dict) -> str:
+    a = record["analysis"]
+    lines = [f"Case 1, {a['n_ok']} realizations run by every route (the pool); high fidelity {HIGH} at "
+             f"{record['routes'][HIGH]['s_per_realization']:.2f} s per realization; r50 / r10 = "
+             f"{a['thresholds_m'][0]:.2f} / {a['thresholds_m'][1]:.2f} m; {DRAWS} draws per budget; machine: "
+             f"{record['machine']}", "",
+             "| cheap route | s per realization | quantity | correlation | bias of the cheap route | N/n | "
+             "predicted speed-up | measured speed-up at 8 / 16 / 32 high-fidelity runs' time |",
+             "|---|---:|---|---:|---:|---:|---:|---|"]
+    for name, r in a["cheap"].items():
+        for k, quantity in enumerate(QUANTITY_NAMES):
+            measured = " / ".join(f"{b['speedup'][k]:.2f}" for b in r["budgets"])
+            lines.append(f"| {name} | {r['s_per_realization']:.2f} | {quantity} | {r['correlation'][k]:.3f} | "
+                         f"{r['bias'][k]:+.3f} | {r['ratio'][k]:.2f} | {r['predicted_speedup'][k]:.2f} | {measured} |")
+    return "\n".join(lines) + "\n"
+
+
+def plot(record: dict, path: Path) -> None:
+    a = record["analysis"]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    c_high = record["routes"][HIGH]["s_per_realization"]
+    for k, (ax, quantity) in enumerate(zip(axes, QUANTITY_NAMES)):
+        first = next(iter(a["cheap"].values()))
+        cost = [b["high_runs"] * c_high for b in first["budgets"]]
+        ax.loglog(cost, [b["mse_plain"][k] for b in first["budgets"]], "k-o", label=f"plain, {HIGH}")
+        for j, (name, r) in enumerate(a["cheap"].items()):
+            ax.loglog(cost, [b["mse_multi"][k] for b in r["budgets"]], "--o", color=f"C{j}",
+                      label=f"multi-fidelity, cheap: {name}")
+        ax.set_title(quantity)
+        ax.set_xlabel("wall time (s, one thread)")
+        ax.set_ylabel("mean squared error")
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--realizations", type=int, default=96)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--analyse", action="store_true", help="analyse the existing multifidelity.json again")
+    args = parser.parse_args()
+    path = OUT / "multifidelity.json"
+    if args.analyse:
+        record = json.loads(path.read_text())
+    else:
+        record = {"n": args.realizations, "routes": run_routes(args.realizations, args.workers),
+                  "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, "
+                             f"{args.workers} workers of 1 thread, CPU"}
+    add_gns_route(record["routes"], record["n"])
+    record["analysis"] = analyse(record)
+    path.write_text(json.dumps(record, indent=1, default=float) + "\n")
+    (OUT / "multifidelity.md").write_text(markdown(record))
+    plot(record, OUT / "multifidelity.png")
+    print(markdown(record))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,151 @@
+"""Rule multifidelity: a case's exceedance curves and zoning corrected towards the accurate MPM.
+
+The Monte Carlo table (the cheap route: its simulator after the gate) and the paired table (the
+first realizations again, by the MPM at the accurate mesh) are combined with
+:func:`rgns.multifidelity.control_variate` for every quantity that is a mean: P(R > d) and
+P(I > d) at every distance d, P(x affected) at every point of the zoning profile, and the means of
+R, V and I. Costs come from the Snakemake benchmark files of the chunks.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from rgns.hazard import ZONE_LEVELS, zone_levels, zones  # noqa: E402
+from rgns.multifidelity import (ControlVariateEstimate, MultiFidelityError, allocate, control_variate,  # noqa: E402
+                                exceedance_indicators, optimal_ratio, speedup)
+from rgns.realizations import FINISHED  # noqa: E402
+
+METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
+CURVES = ("runout_m", "influence_m")
+DISTANCE_STEP_M = 0.25
+
+
+def paired_rows(low: pd.DataFrame, high: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The cheap table reordered with the paired realizations first, and the paired accurate rows
+    in the same order; a realization not finished by either route is left out of both."""
+    low = low[low["status"].isin(FINISHED)].set_index("index")
+    high = high[high["status"].isin(FINISHED)].set_index("index")
+    both = [i for i in high.index if i in low.index]
+    if len(both) < 2:
+        raise MultiFidelityError(f"{len(both)} realizations finished at both fidelities; at least 2 are needed")
+    rest = [i for i in low.index if i not in set(both)]
+    return low.loc[both + rest].reset_index(), high.loc[both].reset_index()
+
+
+def costs(low_benchmarks: list[str], n_low: int, high_benchmarks: list[str], n_high: int) -> dict[str, float]:
+    """Seconds per realization of each route, from Snakemake benchmark files (column ``s``)."""
+    def seconds(paths: list[str]) -> float:
+        return float(sum(pd.read_csv(path, sep="\t")["s"].sum() for path in paths))
+    return {"low_s": seconds(low_benchmarks) / n_low, "high_s": seconds(high_benchmarks) / n_high}
+
+
+def affected(table: pd.DataFrame, x_m: np.ndarray) -> np.ndarray:
+    """[N, X] indicators: point x lies between a realization's back scarp and front (0 where none moved)."""
+    rear, front = table["rear_x_m"].to_numpy(float)[:, None], table["front_x_m"].to_numpy(float)[:, None]
+    with np.errstate(invalid="ignore"):
+        return ((rear <= x_m[None, :]) & (x_m[None, :] <= front)).astype(float)
+
+
+def _estimate_record(estimate: ControlVariateEstimate) -> dict[str, Any]:
+    return {key: np.asarray(getattr(estimate, key)).tolist() for key in
+            ("estimate", "lower", "upper", "high_mean", "low_mean", "weight", "correlation", "bias")}
+
+
+def distance_at(d_m: np.ndarray, probability: np.ndarray, p: float) -> float | None:
+    """The first distance whose exceedance probability is at most p (None if it never drops there)."""
+    below = np.nonzero(probability <= p)[0]
+    return float(d_m[below[0]]) if below.size else None
+
+
+def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float],
+            seed: int = 0) -> dict[str, Any]:
+    """Every corrected quantity of one case, with the uncorrected ones beside it."""
+    low, high = paired_rows(low, high)
+    n, confidence = len(high), settings["confidence"]
+    record: dict[str, Any] = {"n_low": len(low), "n_paired": n, "high_cell_size_m": settings["high_cell_size_m"],
+                              "confidence": confidence, "cost": cost, "means": {}, "exceedance": {}}
+    for key in METRICS:
+        estimate = control_variate(high[[key]].to_numpy(float), low[[key]].to_numpy(float), confidence, seed=seed)
+        record["means"][key] = {name: value[0] for name, value in _estimate_record(estimate).items()}
+    for key in CURVES:
+        top = max(low[key].max(), high[key].max())
+        d_m = np.arange(0.0, top + DISTANCE_STEP_M, DISTANCE_STEP_M)
+        estimate = control_variate(exceedance_indicators(high[key], d_m), exceedance_indicators(low[key], d_m),
+                                   confidence, seed=seed)
+        corrected = np.clip(estimate.estimate, 0.0, 1.0)
+        record["exceedance"][key] = {
+            "d_m": d_m.tolist(), "uncorrected": exceedance_indicators(low[key], d_m).mean(0).tolist(),
+            "corrected": corrected.tolist(), "lower": np.clip(estimate.lower, 0, 1).tolist(),
+            "upper": np.clip(estimate.upper, 0, 1).tolist(), "paired_high": estimate.high_mean.tolist(),
+            "distances": {str(p): {"uncorrected": distance_at(d_m, exceedance_indicators(low[key], d_m).mean(0), p),
+                                   "corrected": distance_at(d_m, corrected, p)}
+                          for p in settings["exceedance_probabilities"]}}
+    x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
+    estimate = control_variate(affected(high, x_m), affected(low, x_m), confidence, seed=seed)
+    probability = np.clip(estimate.estimate, 0.0, 1.0)
+    uncorrected = affected(low, x_m).mean(0)
+    thresholds = settings["thresholds"]
+    record["zoning"] = {
+        "x_m": x_m.tolist(), "uncorrected": uncorrected.tolist(), "corrected": probability.tolist(),
+        "lower": np.clip(estimate.lower, 0, 1).tolist(), "upper": np.clip(estimate.upper, 0, 1).tolist(),
+        "zones_uncorrected": [asdict(zone) for zone in zones(x_m, zone_levels(uncorrected, thresholds))],
+        "zones_corrected": [asdict(zone) for zone in zones(x_m, zone_levels(probability, thresholds))]}
+    runout = record["means"]["runout_m"]
+    rho = float(np.nan_to_num(runout["correlation"]))
+    record["allocation"] = {"correlation_runout": rho, "optimal_ratio": optimal_ratio(cost["high_s"], cost["low_s"], rho),
+                            "speedup_at_equal_error": speedup(cost["high_s"], cost["low_s"], rho)}
+    if settings.get("target_half_width_m"):
+        plan = allocate(cost["high_s"], cost["low_s"], rho, float(high["runout_m"].std(ddof=1)),
+                        settings["target_half_width_m"], confidence)
+        record["allocation"]["target"] = {"half_width_m": settings["target_half_width_m"], **asdict(plan)}
+    return record
+
+
+def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
+    """Exceedance of R and I and the zoning probability: cheap route, corrected (with interval), paired accurate."""
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    for ax, key in zip(axes, CURVES):
+        curve = record["exceedance"][key]
+        d = curve["d_m"]
+        ax.step(d, curve["uncorrected"], where="post", color="C0", label=f"cheap route (n = {record['n_low']})")
+        ax.step(d, curve["corrected"], where="post", color="C3", label="multi-fidelity corrected")
+        ax.fill_between(d, curve["lower"], curve["upper"], step="post", color="C3", alpha=0.2,
+                        label=f"{record['confidence']:.0%} interval")
+        ax.step(d, curve["paired_high"], where="post", color="k", linestyle=":",
+                label=f"accurate MPM alone (n = {record['n_paired']})")
+        ax.set_xlabel(f"{METRICS[key]} (m)")
+        ax.set_ylabel("exceedance probability")
+        ax.set_ylim(-0.02, 1.02)
+    axes[0].legend(fontsize=7)
+    zoning = record["zoning"]
+    ax = axes[2]
+    ax.plot(zoning["x_m"], zoning["uncorrected"], color="C0", label="cheap route")
+    ax.plot(zoning["x_m"], zoning["corrected"], color="C3", label="corrected")
+    ax.fill_between(zoning["x_m"], zoning["lower"], zoning["upper"], color="C3", alpha=0.2)
+    ax.set_xlabel("x along the section (m)")
+    ax.set_ylabel("P(affected)")
+    ax.set_ylim(-0.02, 1.02)
+    fig.suptitle(f"{case}: multi-fidelity correction towards the MPM at {record['high_cell_size_m']:g} m cells")
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def write_multifidelity(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float],
+                        outputs: dict[str, str], case: str) -> dict[str, Any]:
+    """Correct, then write the JSON and the figure."""
+    record = correct(low, high, settings, cost)
+    record["levels"] = list(ZONE_LEVELS)
+    Path(outputs["json"]).write_text(json.dumps(record, indent=1, default=float) + "\n")
+    plot(record, outputs["figure"], case)
+    return record

@@ -1,0 +1,67 @@
+"""The multi-fidelity correction of a case's tables: what the rule multifidelity writes."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rgns.multifidelity import MultiFidelityError
+from rgns.multifidelity_outputs import correct, write_multifidelity
+
+SETTINGS = {"confidence": 0.95, "high_cell_size_m": 0.5, "exceedance_probabilities": [0.5, 0.1],
+            "domain": {"length_m": 60.0}, "resolution_m": 0.5, "thresholds": [0.9, 0.5, 0.1, 0.01],
+            "target_half_width_m": 0.5}
+COST = {"low_s": 2.0, "high_s": 20.0}
+
+
+def table(runout: np.ndarray, status: str = "ok") -> pd.DataFrame:
+    """A Monte Carlo table: toe at 30 m, the front R beyond it, the back scarp 0.4 R behind the crest at 20 m."""
+    n = runout.size
+    return pd.DataFrame({"index": np.arange(n), "status": status, "runout_m": runout, "volume_m2": 10 * runout,
+                         "influence_m": 0.4 * runout, "front_x_m": 30.0 + runout, "rear_x_m": 20.0 - 0.4 * runout})
+
+
+def test_a_shifted_cheap_route_is_corrected_to_the_accurate_mean():
+    rng = np.random.default_rng(0)
+    accurate = rng.gamma(4.0, 2.0, 200)
+    cheap = accurate - 2.0  # 2 m short everywhere, perfectly correlated
+    record = correct(table(cheap), table(accurate[:20]), SETTINGS, COST)
+    runout = record["means"]["runout_m"]
+    assert runout["estimate"] == pytest.approx(accurate.mean(), abs=1e-9)  # the whole pool's, not the 20 pairs'
+    assert runout["bias"] == pytest.approx(-2.0)
+    assert runout["lower"] <= accurate.mean() <= runout["upper"]
+    assert not runout["lower"] <= runout["low_mean"] <= runout["upper"]
+    curve = record["exceedance"]["runout_m"]
+    d = np.array(curve["d_m"])
+    truth = (accurate[:, None] > d[None, :]).mean(0)
+    assert np.abs(np.array(curve["corrected"]) - truth).max() < np.abs(np.array(curve["uncorrected"]) - truth).max()
+    assert record["allocation"]["speedup_at_equal_error"] > 5.0  # correlation 1, cost ratio 10
+    assert record["allocation"]["target"]["n_high"] >= 2
+
+
+def test_a_perfect_cheap_route_changes_nothing():
+    runout = np.random.default_rng(1).gamma(4.0, 2.0, 50)
+    record = correct(table(runout), table(runout[:10]), SETTINGS, COST)
+    zoning = record["zoning"]
+    assert np.allclose(zoning["corrected"], zoning["uncorrected"])
+    assert record["zoning"]["zones_corrected"] == record["zoning"]["zones_uncorrected"]
+    for curve in record["exceedance"].values():
+        assert np.allclose(curve["corrected"], curve["uncorrected"])
+
+
+def test_unfinished_realizations_leave_their_pairs(tmp_path):
+    runout = np.linspace(1.0, 9.0, 12)
+    low, high = table(runout), table(runout[:4] + 1.0)
+    low.loc[1, "status"] = "diverged: left the domain"
+    high.loc[2, "status"] = "diverged: non-finite"
+    outputs = {"json": str(tmp_path / "m.json"), "figure": str(tmp_path / "m.png")}
+    record = write_multifidelity(low, high, SETTINGS, COST, outputs, "case1")
+    assert (record["n_paired"], record["n_low"]) == (2, 11)
+    assert json.loads((tmp_path / "m.json").read_text())["n_paired"] == 2
+    assert (tmp_path / "m.png").stat().st_size > 10_000
+
+
+def test_too_few_finished_pairs_is_a_clear_error():
+    runout = np.linspace(1.0, 9.0, 12)
+    with pytest.raises(MultiFidelityError, match="1 realizations finished at both fidelities"):
+        correct(table(runout), table(runout[:1]), SETTINGS, COST)

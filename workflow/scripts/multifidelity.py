@@ -1,0 +1,22 @@
+"""Rule multifidelity: a case's hazard corrected towards the accurate MPM (rgns.multifidelity_outputs)."""
+from pathlib import Path
+
+from rgns.logsetup import log_to_file
+from rgns.multifidelity_outputs import costs, write_multifidelity
+from rgns.tables import read_csv
+
+log = log_to_file(snakemake.log[0])
+settings = snakemake.params[0]
+low, high = read_csv(snakemake.input.realizations), read_csv(snakemake.input.paired)
+measured = {name: [p for p in settings[name] if Path(p).exists()] for name in ("low_benchmarks", "high_benchmarks")}
+if all(len(measured[name]) == len(settings[name]) for name in measured):
+    cost = costs(measured["low_benchmarks"], len(low), measured["high_benchmarks"], len(high))
+else:  # chunks made before their runs were timed
+    cost = {"low_s": float("nan"), "high_s": float("nan")}
+    log.warning("some chunks have no benchmark file: the cost of each route is not known")
+record = write_multifidelity(low, high, settings, cost, dict(snakemake.output.items()), snakemake.wildcards.case)
+runout = record["means"]["runout_m"]
+log.info("%s: mean R corrected %.3f m [%.3f, %.3f] from the cheap %.3f m (bias over %d pairs %+.3f m, "
+         "correlation %.3f); %.2f s vs %.2f s per realization", snakemake.wildcards.case, runout["estimate"],
+         runout["lower"], runout["upper"], runout["low_mean"], record["n_paired"], runout["bias"],
+         runout["correlation"], cost["low_s"], cost["high_s"])
