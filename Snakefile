@@ -35,8 +35,10 @@ include: "rules/hazard.smk"
 # Light table and figure steps run where snakemake runs, not as cluster jobs of their own.
 localrules:
     mc_collect,
+    mc_paired_collect,
     exceedance,
     zoning,
+    multifidelity,
     report,
 
 

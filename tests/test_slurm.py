@@ -56,7 +56,7 @@ def test_the_tiny_workflow_runs_to_the_report_through_slurm_with_the_profile(clu
     kinds = sorted(set(submitted.values()))
     # every per-realization step of the 5 realizations went in one grouped job; light steps ran locally
     assert kinds == ["group_prepare_geometry_mpm_input_random_field_scene_preview", "rule_gns_export", "rule_mc_chunk",
-                     "rule_mc_mean_field", "rule_mpm_run", "rule_pack", "rule_train", "rule_validate",
+                     "rule_mc_mean_field", "rule_mc_paired_chunk", "rule_mpm_run", "rule_pack", "rule_train", "rule_validate",
                      "rule_validation_rollout"], kinds
     assert list(submitted.values()).count("group_prepare_geometry_mpm_input_random_field_scene_preview") == 1
     for job in submitted:  # finished jobs stay visible for MinJobAge = 600 s
