@@ -22,7 +22,6 @@ errors scale as 1/B). Writes ``benchmarks/results/multifidelity.json``, ``multif
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import platform
 import time
@@ -37,10 +36,10 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
-from rgns.metrics import MetricSettings  # noqa: E402
-from rgns.montecarlo import measure, simulate_mpm  # noqa: E402
+from rgns.montecarlo import simulate_mpm  # noqa: E402
 from rgns.multifidelity import optimal_ratio, point_estimate, speedup  # noqa: E402
-from rgns.realizations import FINISHED, CaseInputs, draw_realization  # noqa: E402
+from rgns.realizations import FINISHED, draw_realization  # noqa: E402
+from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the same drawing and measuring)
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
@@ -53,20 +52,15 @@ def run_chunk(indices: list[int]) -> dict[str, tuple[list[dict], float]]:
     """Per MPM route: the rows of realizations ``indices`` and their wall time (the routes one after
     another on the same realizations, so the machine's load weighs on each alike)."""
     torch.set_num_threads(1)
-    base = load_config(REPO / "config" / "config.yaml")
+    config = load_config(REPO / "config" / "config.yaml")
+    mpm = config["mpm"]
     out = {}
     for name, cell_size_m in MPM_ROUTES.items():
-        config = copy.deepcopy(base)
-        config["mesh"]["cell_size_m"] = cell_size_m
-        config["random_field"]["grid_spacing_m"] = 1.0
-        inputs = CaseInputs.from_config(config, "case1")
-        batch = [draw_realization(inputs, i) for i in indices]
-        mpm = config["mpm"]
+        batch = [draw_realization(case_inputs(config, "case1", cell_size_m), i) for i in indices]
         start = time.perf_counter()
         simulated = simulate_mpm(batch, mpm, int(round(mpm["duration_s"] / mpm["frame_interval_s"])) + 1, keep="ends")
         seconds = time.perf_counter() - start
-        rows = [measure(r, s, MetricSettings(**config["metrics"]), mpm["density_kg_m3"], mpm["frame_interval_s"],
-                        mpm["gravity_m_s2"]) for r, s in zip(batch, simulated)]
+        rows = measured(batch, simulated, config)
         out[name] = ([{k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")} for row in rows],
                      seconds)
     return out

@@ -47,14 +47,18 @@ class ControlVariateEstimate:
     confidence: float
 
 
+def _sums(high: np.ndarray, low: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sums of squared deviations of h and of l, and of their cross products, along ``axis``."""
+    dh = high - high.mean(axis=axis, keepdims=True)
+    dl = low - low.mean(axis=axis, keepdims=True)
+    return (dh * dh).sum(axis=axis), (dl * dl).sum(axis=axis), (dh * dl).sum(axis=axis)
+
+
 def _weight(high: np.ndarray, low: np.ndarray, axis: int) -> np.ndarray:
     """cov(h, l) / var(l) along ``axis``; 1 where the paired low-fidelity values do not vary (a tail
     indicator that no pair reaches): the cheap route's value then stands, shifted by the paired
     difference, instead of the pairs alone throwing the N cheap runs away (any fixed weight is unbiased)."""
-    dl = low - low.mean(axis=axis, keepdims=True)
-    dh = high - high.mean(axis=axis, keepdims=True)
-    var = (dl * dl).sum(axis=axis)
-    cov = (dh * dl).sum(axis=axis)
+    _, var, cov = _sums(high, low, axis)
     return np.divide(cov, var, out=np.ones_like(cov), where=var > 1e-12 * (1.0 + np.abs(cov)))
 
 
@@ -99,9 +103,9 @@ def control_variate(high: np.ndarray, low: np.ndarray, confidence: float = 0.95,
                            random_state=np.random.default_rng(seed))
     lower, upper = boot.confidence_interval
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)  # a degenerate bootstrap: the point
-    dh, dl = h2 - h2.mean(0), l2[:n] - l2[:n].mean(0)
-    denominator = np.sqrt((dh * dh).sum(0) * (dl * dl).sum(0))
-    correlation = np.divide((dh * dl).sum(0), denominator, out=np.full(h2.shape[1], np.nan), where=denominator > 0)
+    var_h, var_l, cov = _sums(h2, l2[:n], axis=0)
+    denominator = np.sqrt(var_h * var_l)
+    correlation = np.divide(cov, denominator, out=np.full(h2.shape[1], np.nan), where=denominator > 0)
     return ControlVariateEstimate(
         estimate=estimate.reshape(shape), lower=np.asarray(lower).reshape(shape), upper=np.asarray(upper).reshape(shape),
         high_mean=h2.mean(0).reshape(shape), low_mean=l2.mean(0).reshape(shape),

@@ -82,18 +82,17 @@ def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cos
         d_m = np.arange(0.0, top + DISTANCE_STEP_M, DISTANCE_STEP_M)
         estimate = control_variate(exceedance_indicators(high[key], d_m), exceedance_indicators(low[key], d_m),
                                    confidence, seed=seed)
-        corrected = np.clip(estimate.estimate, 0.0, 1.0)
+        corrected, uncorrected = np.clip(estimate.estimate, 0.0, 1.0), estimate.low_mean  # low_mean: over all N
         record["exceedance"][key] = {
-            "d_m": d_m.tolist(), "uncorrected": exceedance_indicators(low[key], d_m).mean(0).tolist(),
+            "d_m": d_m.tolist(), "uncorrected": uncorrected.tolist(),
             "corrected": corrected.tolist(), "lower": np.clip(estimate.lower, 0, 1).tolist(),
             "upper": np.clip(estimate.upper, 0, 1).tolist(), "paired_high": estimate.high_mean.tolist(),
-            "distances": {str(p): {"uncorrected": distance_at(d_m, exceedance_indicators(low[key], d_m).mean(0), p),
+            "distances": {str(p): {"uncorrected": distance_at(d_m, uncorrected, p),
                                    "corrected": distance_at(d_m, corrected, p)}
                           for p in settings["exceedance_probabilities"]}}
     x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
     estimate = control_variate(affected(high, x_m), affected(low, x_m), confidence, seed=seed)
-    probability = np.clip(estimate.estimate, 0.0, 1.0)
-    uncorrected = affected(low, x_m).mean(0)
+    probability, uncorrected = np.clip(estimate.estimate, 0.0, 1.0), estimate.low_mean
     thresholds = settings["thresholds"]
     record["zoning"] = {
         "x_m": x_m.tolist(), "uncorrected": uncorrected.tolist(), "corrected": probability.tolist(),
