@@ -29,6 +29,7 @@ include: "rules/dataset.smk"
 include: "rules/gns.smk"
 include: "rules/validation.smk"
 include: "rules/montecarlo.smk"
+include: "rules/site.smk"
 include: "rules/hazard.smk"
 
 
@@ -63,6 +64,7 @@ rule hazard_map:
         expand("results/dataset/{set}.h5", set=RUN_SETS),
         [] if config["gns"]["model"] == "shipped" else "results/dataset/gns/metadata.json",
         "results/report/report.html",
+        expand("results/site/{case}/{name}", case=SITE["name"], name=SITE_FILES) if SITE_FILES else [],
 
 
 rule paraview:

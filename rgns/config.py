@@ -13,6 +13,8 @@ import jsonschema
 import numpy as np
 import yaml
 
+from rgns.site import apply_site
+
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SCHEMA_PATH = REPO_ROOT / "config" / "schema.yaml"
 DEFAULT_CONFIG_PATH = REPO_ROOT / "config" / "config.yaml"
@@ -127,6 +129,12 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
             other = "dt_s" if name == "frame_interval_s" else "frame_interval_s"
             errors.append(f"config key 'mpm.{name}' = {numerator!r}: not a whole number of mpm.{other} = {denominator!r}")
 
+    if not config["sets"]:
+        errors.append("config key 'sets': no set and no site: give sets, or a site (config key 'site')")
+    missing = [name for name in ("train", "valid") if name not in config["sets"]]
+    if config["gns"]["model"] != "shipped" and missing:
+        errors.append(f"config key 'sets': no {' and no '.join(missing)} set, which gns.model = "
+                      f"{config['gns']['model']!r} trains on (gns.model: shipped needs none)")
     families = config["geometry"]["families"]
     for set_name, groups in config["sets"].items():
         for g, group in enumerate(groups):
@@ -171,7 +179,7 @@ def _hazard_errors(config: dict[str, Any]) -> list[str]:
 
 
 def validate_config(config: dict[str, Any], schema_path: str | Path = SCHEMA_PATH) -> dict[str, Any]:
-    """Check ``config`` against the schema and the cross-key rules, fill defaults, return it.
+    """Check ``config`` against the schema and the cross-key rules, fill defaults, add the site, return it.
 
     Schema violations are reported first, all of them and readably; only a config that passes
     goes through ``snakemake.utils.validate``, which inserts the defaults.
@@ -183,7 +191,7 @@ def validate_config(config: dict[str, Any], schema_path: str | Path = SCHEMA_PAT
     errors = schema_errors(config, load_yaml(schema_path))
     if not errors:
         validate(config, str(schema_path))
-        errors = consistency_errors(config)
+        errors = apply_site(config) or consistency_errors(config)
     if errors:
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(errors))
     return config

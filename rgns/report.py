@@ -67,7 +67,9 @@ def paragraph(text: str, note: bool = False) -> str:
 
 
 def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
-    """Exceedance, convergence and zoning of one Monte Carlo case."""
+    """Exceedance, convergence and zoning of one Monte Carlo case; a site's map view first."""
+    if "map.png" in files:
+        report.add(f"Site: {case} — map view", figure(files["map.png"], caption("site_map", case=case)))
     exceedance = json.loads(files["exceedance.json"].read_text())
     convergence = json.loads(files["convergence.json"].read_text())
     zoning = json.loads(files["zoning.json"].read_text())

@@ -51,7 +51,8 @@ rule report:
         + expand("results/report/validation/energy_{case}.png", case=TEST_CASES),
         hazard=expand("results/report/{case}/{name}", case=MC_CASES,
                       name=["exceedance.png", "exceedance.json", "convergence.png", "convergence.json",
-                            "zoning.png", "zoning.json"] + MULTIFIDELITY_FILES),
+                            "zoning.png", "zoning.json"] + MULTIFIDELITY_FILES)
+        + [f"results/site/{case}/map.png" for case in MC_CASES if "map.png" in SITE_FILES and case == SITE["name"]],
     output:
         "results/report/report.html",
     params:

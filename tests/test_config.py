@@ -1,6 +1,8 @@
 """Config validation: good configs pass with defaults filled; bad ones name the key and value."""
 from __future__ import annotations
 
+import copy
+
 import pytest
 
 from rgns.config import ConfigError, load_yaml, validate_config
@@ -92,9 +94,18 @@ def test_a_clockwise_family_fails_naming_the_family(raw_default_config):
         validate_config(raw_default_config)
 
 
-def test_a_config_without_a_training_set_fails(raw_default_config):
+def test_a_config_that_trains_without_a_training_set_fails(raw_default_config):
     del raw_default_config["sets"]["train"]
-    with pytest.raises(ConfigError, match=r"'sets': 'train' is a required property"):
+    validate_config(copy.deepcopy(raw_default_config))   # the shipped model needs no training set
+    raw_default_config["gns"] = {"model": "train"}
+    with pytest.raises(ConfigError, match=r"'sets': no train set, which gns.model = 'train' trains on"):
+        validate_config(raw_default_config)
+
+
+def test_a_config_with_no_set_and_no_site_fails(raw_default_config):
+    raw_default_config["sets"] = {}
+    raw_default_config["montecarlo"]["cases"] = []
+    with pytest.raises(ConfigError, match=r"'sets': no set and no site"):
         validate_config(raw_default_config)
 
 
