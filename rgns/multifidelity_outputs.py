@@ -61,6 +61,13 @@ def _estimate_record(estimate: ControlVariateEstimate) -> dict[str, Any]:
             ("estimate", "lower", "upper", "high_mean", "low_mean", "weight", "correlation", "bias")}
 
 
+def rearranged(probability: np.ndarray) -> np.ndarray:
+    """An exceedance curve made a probability and non-increasing by sorting its values (the monotone
+    rearrangement of Chernozhukov, Fernandez-Val & Galichon 2010: it never moves the curve further
+    from the true one, which is non-increasing); a control-variate estimate need not be either."""
+    return np.sort(np.clip(np.asarray(probability, dtype=float), 0.0, 1.0))[::-1]
+
+
 def distance_at(d_m: np.ndarray, probability: np.ndarray, p: float) -> float | None:
     """The first distance whose exceedance probability is at most p (None if it never drops there)."""
     below = np.nonzero(probability <= p)[0]
@@ -82,11 +89,11 @@ def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cos
         d_m = np.arange(0.0, top + DISTANCE_STEP_M, DISTANCE_STEP_M)
         estimate = control_variate(exceedance_indicators(high[key], d_m), exceedance_indicators(low[key], d_m),
                                    confidence, seed=seed)
-        corrected, uncorrected = np.clip(estimate.estimate, 0.0, 1.0), estimate.low_mean  # low_mean: over all N
+        corrected, uncorrected = rearranged(estimate.estimate), estimate.low_mean  # low_mean: over all N
         record["exceedance"][key] = {
             "d_m": d_m.tolist(), "uncorrected": uncorrected.tolist(),
-            "corrected": corrected.tolist(), "lower": np.clip(estimate.lower, 0, 1).tolist(),
-            "upper": np.clip(estimate.upper, 0, 1).tolist(), "paired_high": estimate.high_mean.tolist(),
+            "corrected": corrected.tolist(), "lower": rearranged(estimate.lower).tolist(),
+            "upper": rearranged(estimate.upper).tolist(), "paired_high": estimate.high_mean.tolist(),
             "distances": {str(p): {"uncorrected": distance_at(d_m, uncorrected, p),
                                    "corrected": distance_at(d_m, corrected, p)}
                           for p in settings["exceedance_probabilities"]}}

@@ -65,3 +65,17 @@ def test_too_few_finished_pairs_is_a_clear_error():
     runout = np.linspace(1.0, 9.0, 12)
     with pytest.raises(MultiFidelityError, match="1 realizations finished at both fidelities"):
         correct(table(runout), table(runout[:1]), SETTINGS, COST)
+
+
+def test_corrected_exceedance_curves_are_probabilities_that_never_rise():
+    """A noisy cheap route (correlation well below 1): the control-variate curve, left alone, would rise
+    in places; the written one and its band are non-increasing and within [0, 1]."""
+    rng = np.random.default_rng(3)
+    accurate = rng.gamma(4.0, 2.0, 120)
+    cheap = 0.7 * accurate + rng.normal(0.0, 2.0, 120)
+    record = correct(table(cheap), table(accurate[:12]), SETTINGS, COST)
+    for key in ("runout_m", "influence_m"):
+        curve = record["exceedance"][key]
+        for name in ("corrected", "lower", "upper"):
+            values = np.array(curve[name])
+            assert np.all(np.diff(values) <= 0.0) and values.min() >= 0.0 and values.max() <= 1.0
