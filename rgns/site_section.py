@@ -140,6 +140,10 @@ def sample_dem(path: str | Path, line: np.ndarray, crs: str | None, spacing_m: f
 
 def read_section(section: dict, spacing_m: float) -> Section:
     """The section of config ``site.section``: a CSV, or a DEM and a line."""
+    given = sorted(key for key in ("csv", "dem", "line") if section.get(key))
+    if given not in (["csv"], ["dem", "line"]):
+        raise SiteError(f"config key 'site.section' gives {', '.join(given) or 'nothing'}: give either csv, or dem "
+                        "and line")
     if section.get("csv"):
         return read_csv_section(section["csv"], spacing_m)
     return sample_dem(section["dem"], np.asarray(section["line"], dtype=float), section.get("crs"), spacing_m)

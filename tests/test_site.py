@@ -258,7 +258,9 @@ def test_a_site_named_like_a_set_is_refused(tmp_path):
 def test_a_site_needs_a_csv_or_a_dem_with_a_line(tmp_path):
     config = site_config(tmp_path)
     config["site"]["section"] = {"dem": config["site"]["section"]["dem"]}
-    assert "site.section" in config_error(config)
+    assert "config key 'site.section' gives dem: give either csv, or dem and line" in config_error(config)
+    config["site"]["section"]["csv"] = "section.csv"
+    assert "config key 'site.section' gives csv, dem: give either" in config_error(config)
     with pytest.raises(SiteError, match="not a readable CSV"):
         read_section({"csv": str(tmp_path / "missing.csv")}, 1.0)
 
