@@ -124,11 +124,14 @@ def sample_dem(path: str | Path, line: np.ndarray, crs: str | None, spacing_m: f
         raise SiteError(f"site.section.line: the point at chainage {chainage[k]:.2f} m ({points[k, 0]:.2f}, "
                         f"{points[k, 1]:.2f}) lies outside the pixel centres of site.section.dem = {str(path)!r} "
                         f"(x {lo_x:.2f} to {hi_x:.2f}, y {lo_y:.2f} to {hi_y:.2f})")
-    values = np.ma.filled(elevation.astype(float), np.nan)
     order = np.argsort(y_centres)  # the interpolator wants increasing axes; a north-up raster's rows run south
-    interpolate = RegularGridInterpolator((y_centres[order], x_centres), values[order], method="linear")
-    sampled = interpolate(points[:, ::-1])
-    nodata = np.flatnonzero(~np.isfinite(sampled))
+    missing = np.ma.getmaskarray(elevation) | ~np.isfinite(np.ma.getdata(elevation))
+
+    def interpolate(grid: np.ndarray) -> np.ndarray:
+        return RegularGridInterpolator((y_centres[order], x_centres), grid[order], method="linear")(points[:, ::-1])
+
+    sampled = interpolate(np.where(missing, 0.0, np.ma.getdata(elevation).astype(float)))
+    nodata = np.flatnonzero(interpolate(missing.astype(float)) > 1e-9)  # a no-data pixel with a non-zero weight
     if nodata.size:
         k = nodata[0]
         raise SiteError(f"site.section.dem = {str(path)!r}: no-data cells on the section line, first at chainage "

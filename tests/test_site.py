@@ -211,7 +211,7 @@ def test_no_data_on_the_line_is_named_with_its_chainage(tmp_path):
     config = site_config(tmp_path)
     write_dem(Path(config["site"]["section"]["dem"]), nodata_at=(10, 20))
     message = config_error(config)
-    assert "no-data cells on the section line" in message and "chainage 19.00 m" in message
+    assert "no-data cells on the section line, first at chainage 20.00 m" in message and "1 of 60 samples" in message
 
 
 def test_a_crs_mismatch_is_named(tmp_path):
