@@ -108,20 +108,24 @@ def _scale_bar(axis: plt.Axes, width_m: float) -> None:
               fontsize=9, bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none"})
 
 
-def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, Any], name: str,
-                  path: str | Path) -> None:
-    """Hillshade of the DEM with the section line coloured by hazard level, a scale bar and the CRS."""
+def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, Any], levels: dict[str, str],
+                  name: str, path: str | Path) -> None:
+    """Hillshade over grey-blue elevation tints (no hue a hazard level uses), the section line coloured by hazard level, a scale bar and the CRS.
+
+    ``levels`` maps each hazard level to its probability range (zoning.json's ``levels``).
+    """
     import rasterio
 
     with rasterio.open(dem_path) as dataset:
         elevation = dataset.read(1, masked=True).astype(float)
         bounds = dataset.bounds
         resolution = dataset.res
-    shade = LightSource(azdeg=315, altdeg=45).hillshade(np.ma.filled(elevation, np.nanmean(elevation)),
-                                                        vert_exag=2.0, dx=resolution[0], dy=resolution[1])
+    filled = np.ma.filled(elevation, float(elevation.mean()))
+    shade = LightSource(azdeg=315, altdeg=45).hillshade(filled, vert_exag=1.0, dx=resolution[0], dy=resolution[1])
     figure, axis = plt.subplots(figsize=(8, 8 * (bounds.top - bounds.bottom) / (bounds.right - bounds.left) + 1))
     extent = (bounds.left, bounds.right, bounds.bottom, bounds.top)
-    axis.imshow(shade, cmap="gray", extent=extent, origin="upper")
+    axis.imshow(filled, cmap="bone", extent=extent, origin="upper", vmin=filled.min() - 0.6 * np.ptp(filled))
+    axis.imshow(shade, cmap="gray", extent=extent, origin="upper", alpha=0.45)
     contours = axis.contour(np.linspace(bounds.left, bounds.right, elevation.shape[1]),
                             np.linspace(bounds.top, bounds.bottom, elevation.shape[0]), elevation,
                             levels=10, colors="saddlebrown", linewidths=0.5, alpha=0.6)
@@ -130,7 +134,8 @@ def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, An
     segments = [np.asarray(f["geometry"]["coordinates"]) for f in features["features"]]
     colours = [ZONE_COLOURS[f["properties"]["rank"]] for f in features["features"]]
     axis.add_collection(LineCollection(segments, colors=colours, linewidths=5))
-    axis.annotate("section start", section.line[0], xytext=(5, 5), textcoords="offset points", fontsize=8)
+    axis.annotate("section start", section.line[0], xytext=(-10, 10), textcoords="offset points", fontsize=8)
+    axis.ticklabel_format(useOffset=False, style="plain")
     axis.set_xlim(extent[:2])
     axis.set_ylim(extent[2:])
     axis.set_aspect("equal")
@@ -139,18 +144,13 @@ def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, An
               bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none"})
     axis.set_xlabel("easting (m)")
     axis.set_ylabel("northing (m)")
-    handles = [Line2D([], [], color=c, linewidth=5, label=f"{level} ({features_probability(features, level)})")
+    handles = [Line2D([], [], color=c, linewidth=5, label=f"{level} ({levels[level]})")
                for c, level in zip(ZONE_COLOURS, ZONE_LEVELS)]
     axis.legend(handles=handles, loc="upper right", fontsize=8, title="hazard level", title_fontsize=8)
     axis.set_title(f"{name}: hazard zones along the section (black: outside the model)")
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)
-
-
-def features_probability(features: dict[str, Any], level: str) -> str:
-    """The probability range of a level, as the features state it ('' when no zone has that level)."""
-    return next((f["properties"]["probability"] for f in features["features"] if f["properties"]["level"] == level), "")
 
 
 def write_site_gis(table: pd.DataFrame, zoning: dict[str, Any], section: Section, settings: dict[str, Any],
@@ -162,5 +162,5 @@ def write_site_gis(table: pd.DataFrame, zoning: dict[str, Any], section: Section
     write_csv(exceedance_by_chainage(table, section, settings["chainage_from_m"], settings["domain_length_m"],
                                      settings["resolution_m"], settings["confidence"]), outputs["exceedance"])
     if "map" in outputs:
-        plot_map_view(settings["dem"], section, features, settings["name"], outputs["map"])
+        plot_map_view(settings["dem"], section, features, zoning["levels"], settings["name"], outputs["map"])
     return features
