@@ -60,10 +60,39 @@ def influence_distance(initial: np.ndarray, final: np.ndarray, crest_x_m: float,
     return max(0.0, float(crest_x_m - np.asarray(initial)[moved, 0].min()))
 
 
-def crest_x(vertices: np.ndarray) -> float:
-    """x of the crest: the rightmost vertex at the polygon's greatest height."""
-    top = vertices[:, 1] >= vertices[:, 1].max() - 1e-9
-    return float(vertices[top, 0].max())
+# ground behind a crest slopes less than this; a face steeper (every face that can fail is), judged
+# over at least CREST_BASE_M of horizontal distance, so that a bump in a DEM's ground is no face
+CREST_GROUND_DEG = 10.0
+CREST_BASE_M = 2.0
+
+
+def crest_x(vertices: np.ndarray, ground_deg: float = CREST_GROUND_DEG, base_m: float = CREST_BASE_M) -> float:
+    """x of the crest: the top of the face, reached from the rightmost highest vertex by walking right
+    along the boundary until both the next edge and the ground over ``base_m`` ahead drop more steeply
+    than ``ground_deg``.
+
+    On a flat-topped polygon that is the rightmost vertex at the greatest height. Where the ground
+    behind the face rises gently to the left (a real site's hinterland, or a drawn polygon whose
+    wall-side corner came out higher than its crest), the highest vertex lies far behind the face,
+    and I measured from it would be 0.
+    """
+    n = len(vertices)
+    top = np.flatnonzero(vertices[:, 1] >= vertices[:, 1].max() - 1e-9)
+    k = int(top[np.argmax(vertices[top, 0])])
+    step = 1 if vertices[(k + 1) % n, 0] > vertices[(k - 1) % n, 0] else -1
+    limit = np.tan(np.radians(ground_deg))
+    for _ in range(n - 1):
+        if vertices[(k + step) % n, 0] <= vertices[k, 0]:
+            break                                   # the boundary turns back: k is the rightmost point
+        j = (k + step) % n                          # the first vertex ahead at least base_m away (or the last rightward)
+        while vertices[j, 0] - vertices[k, 0] < base_m and vertices[(j + step) % n, 0] > vertices[j, 0]:
+            j = (j + step) % n
+        next_dx, next_dy = vertices[(k + step) % n] - vertices[k]
+        dx, dy = vertices[j] - vertices[k]
+        if next_dy < -limit * next_dx and dy < -limit * dx:   # the next edge and the ground over base_m drop steeply
+            break
+        k = (k + step) % n
+    return float(vertices[k, 0])
 
 
 @dataclass

@@ -104,3 +104,21 @@ def test_the_readme_metric_sketch_is_drawn_by_the_metric_code(tmp_path):
 
     plot_metric_sketch(tmp_path / "metrics.png")
     assert (tmp_path / "metrics.png").stat().st_size > 20_000
+
+
+def test_the_crest_is_the_top_of_the_face_behind_gently_rising_ground():
+    # flat top: the rightmost highest vertex, whichever way the polygon runs
+    assert crest_x(SLOPE) == 20.0 and crest_x(SLOPE[::-1]) == 20.0
+    # the wall-side corner drawn higher than the crest (the slope family's ranges allow it): still the face's top
+    assert crest_x(np.array([[0.0, 0.0], [30.0, 0.0], [22.0, 5.0], [16.0, 9.0], [0.0, 10.5]])) == 16.0
+    # a site: ground rising 2 deg away from the face over 20 m, then a 35 deg face; a bump of 0.2 m on the way
+    x = np.arange(0.0, 21.0)
+    ground = 12.0 - np.tan(np.radians(2.0)) * x + np.where(x == 8.0, 0.2, 0.0)
+    face_x = 20.0 + np.arange(1.0, 11.0)
+    face = ground[-1] - np.tan(np.radians(35.0)) * (face_x - 20.0)
+    surface = np.column_stack([np.concatenate([x, face_x]), np.concatenate([ground, face])])
+    face_toe = surface[-1, 0] + surface[-1, 1] / np.tan(np.radians(35.0))
+    site = np.vstack([[[0.0, 0.0], [face_toe, 0.0]], surface[::-1]])
+    assert crest_x(site) == 20.0
+    # an embankment, both crests at one height: the right one (runout is measured to the right)
+    assert crest_x(np.array([[20.0, 0.0], [60.0, 0.0], [47.0, 8.0], [33.0, 8.0]])) == 47.0
