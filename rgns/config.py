@@ -143,7 +143,20 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
                     f"config key 'sets.{set_name}[{g}].family' = {group['family']!r}: no such "
                     f"family under geometry.families (have: {', '.join(sorted(families))})"
                 )
-    return errors + _montecarlo_errors(config) + _hazard_errors(config)
+    return errors + _montecarlo_errors(config) + _hazard_errors(config) + _shipped_errors(config)
+
+
+def _shipped_errors(config: dict[str, Any]) -> list[str]:
+    """With gns.model: shipped, the keys the shipped model is tied to must be its own (said before any job runs)."""
+    from rgns.shipped import ShippedModelError, check_serves, read_card  # local: torch-free, but only needed here
+
+    if config["gns"]["model"] != "shipped":
+        return []
+    try:
+        check_serves(read_card(), config)
+    except ShippedModelError as error:
+        return [f"config key 'gns.model' = 'shipped': {error}"]
+    return []
 
 
 def _montecarlo_errors(config: dict[str, Any]) -> list[str]:
@@ -190,8 +203,9 @@ def validate_config(config: dict[str, Any], schema_path: str | Path = SCHEMA_PAT
 
     errors = schema_errors(config, load_yaml(schema_path))
     if not errors:
+        derive_domain = "domain" not in config  # a site without a domain section sizes its own
         validate(config, str(schema_path))
-        errors = apply_site(config) or consistency_errors(config)
+        errors = apply_site(config, derive_domain) or consistency_errors(config)
     if errors:
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(errors))
     return config

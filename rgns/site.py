@@ -1,9 +1,11 @@
 """A real site as a Monte Carlo case: its soil body, checked against the domain, added to the config.
 
-The soil body is the ground between the section's surface and ``site.base_elevation_m`` over the
-chainage ``site.extent_m = [from, to]``. In the model frame x = chainage - from (the body rests
-against the left wall there) and y = elevation - base (the floor is the base), so the runout room
-is what the domain leaves beyond the toe. The site becomes a geometry family of fixed vertices
+The soil body is the ground between the section's surface and a flat base (``site.base_elevation_m``,
+or ``site.base_depth_m`` below the ground at ``from``) over the chainage ``site.extent_m = [from, to]``.
+In the model frame x = chainage - from (the body rests against the left wall there) and
+y = elevation - base (the floor is the base). Without a ``domain`` section the domain is derived:
+the body, ``geometry.runout_room_m`` beyond it and a cell of head room, in whole cells; with one,
+the runout room is what that domain leaves beyond the toe. The site becomes a geometry family of fixed vertices
 and a set of the same name with the site's field statistics: no perturbation, the same rules,
 skipping, chunking and report as case 1.
 """
@@ -110,15 +112,35 @@ def weak_slope_warning(body: SiteBody, site: dict[str, Any], bounds_deg: list[fl
             f"{FIELD_LOW_SIGMAS:g} std, within random_field.friction_bounds_deg): no realization is likely to fail")
 
 
+def base_elevation(section: Section, site: dict[str, Any]) -> float:
+    """The base: ``base_elevation_m``, or ``base_depth_m`` below the ground at the start of the extent."""
+    given = [key for key in ("base_elevation_m", "base_depth_m") if site.get(key) is not None]
+    if len(given) != 1:
+        raise SiteError(f"config key 'site' gives {' and '.join(given) or 'neither base_elevation_m nor base_depth_m'}: "
+                        "give exactly one of base_elevation_m and base_depth_m")
+    if given == ["base_elevation_m"]:
+        return float(site["base_elevation_m"])
+    return float(np.interp(site["extent_m"][0], section.chainage_m, section.elevation_m) - site["base_depth_m"])
+
+
 def site_body(config: dict[str, Any]) -> tuple[Section, SiteBody]:
     """Read the site's section at the mesh resolution and cut its soil body."""
     site = config["site"]
     section = read_section(site["section"], config["mesh"]["cell_size_m"])
-    return section, soil_body(section, site["base_elevation_m"], site["extent_m"])
+    return section, soil_body(section, base_elevation(section, site), site["extent_m"])
 
 
-def apply_site(config: dict[str, Any]) -> list[str]:
-    """Add the site's family and set to a default-filled config; the errors, one line each (empty if none).
+def derived_domain(body: SiteBody, cell_size_m: float, runout_room_m: float) -> dict[str, float]:
+    """The smallest domain of whole cells that holds the body, the runout room beyond it and a cell of head room."""
+    length = body.vertices[:, 0].max() + runout_room_m
+    height = body.vertices[:, 1].max() + cell_size_m
+    return {"length_m": float(np.ceil(length / cell_size_m - 1e-9) * cell_size_m),
+            "height_m": float(np.ceil(height / cell_size_m - 1e-9) * cell_size_m)}
+
+
+def apply_site(config: dict[str, Any], derive_domain: bool = False) -> list[str]:
+    """Add the site's family and set to a default-filled config (and, with ``derive_domain``, its domain);
+    the errors, one line each (empty if none).
 
     The site's realizations are drawn as any set's, with fixed vertices: every realization has the
     same geometry and its own friction field.
@@ -135,6 +157,10 @@ def apply_site(config: dict[str, Any]) -> list[str]:
         section, body = site_body(config)
     except SiteError as error:
         return [str(error)]
+    if derive_domain:
+        config["domain"] = derived_domain(body, config["mesh"]["cell_size_m"], config["geometry"]["runout_room_m"])
+        log.info("site %r: domain derived from the site, %g x %g m", name, config["domain"]["length_m"],
+                 config["domain"]["height_m"])
     problems = fit_problems(body, config)
     if problems:
         return problems

@@ -301,3 +301,36 @@ def test_a_section_that_rises_along_its_line_is_refused_with_the_way_round(tmp_p
     config["site"]["base_elevation_m"] = 98.0
     message = config_error(config)
     assert "the ground rises from 99.02 m at chainage 0.0 m to 99.67 m at 30.0 m: give" in message and "from the top of the slope" in message
+
+
+def test_without_a_domain_section_the_domain_is_sized_to_the_site(tmp_path):
+    config = site_config(tmp_path)
+    del config["domain"]
+    # the site alone (the tiny families need 40 m), trained on from scratch: the shipped GNS serves 80 x 20 m only
+    group = {"family": "hill", "count": 1, "friction_mean_deg": 30.0, "friction_std_deg": 5.0,
+             "correlation_length_x_m": 8.0, "correlation_length_y_m": 4.0}
+    config["sets"], config["geometry"]["families"] = {"train": [group], "valid": [group]}, {}
+    config = validate_config(config)
+    # the body 14 m long and 5.5 m high, 8 m of runout room, a cell of head room, whole 1 m cells
+    assert config["domain"] == {"length_m": 22.0, "height_m": 7.0}
+    assert validate_config(site_config(tmp_path))["domain"] == {"length_m": 40.0, "height_m": 10.0}  # given: kept
+
+
+def test_a_base_given_as_a_depth_below_the_ground_at_the_start_is_flat_there(tmp_path):
+    by_elevation = validate_config(site_config(tmp_path))["geometry"]["families"]["hill"]
+    config = site_config(tmp_path, base_depth_m=5.5)
+    del config["site"]["base_elevation_m"]
+    assert validate_config(config)["geometry"]["families"]["hill"]["vertices"] == by_elevation["vertices"]
+    config = site_config(tmp_path, base_depth_m=5.5)
+    assert "gives base_elevation_m and base_depth_m: give exactly one" in config_error(config)
+    del config["site"]["base_elevation_m"], config["site"]["base_depth_m"]
+    assert "gives neither base_elevation_m nor base_depth_m" in config_error(config)
+
+
+def test_a_derived_domain_the_shipped_model_does_not_serve_is_refused_before_any_job(tmp_path):
+    config = site_config(tmp_path)
+    del config["domain"]
+    config["sets"], config["geometry"]["families"] = {}, {}
+    config["gns"]["model"] = "shipped"
+    message = config_error(config)
+    assert "config key 'gns.model' = 'shipped': the shipped GNS does not serve this config: domain.length_m is 22.0" in message
