@@ -17,11 +17,12 @@ from typing import Any
 
 import numpy as np
 
+from rgns.fields import FIELD_KEYS
+from rgns.geometry import polygon_problems, signed_area
 from rgns.site_section import Section, SiteError, read_section
 
 log = logging.getLogger(__name__)
 
-FIELD_KEYS = ("friction_mean_deg", "friction_std_deg", "correlation_length_x_m", "correlation_length_y_m")
 # the lowest friction angle a field plausibly takes: its mean less this many standard deviations
 FIELD_LOW_SIGMAS = 4.0
 
@@ -83,16 +84,13 @@ def soil_body(section: Section, base_elevation_m: float, extent_m: list[float]) 
 
 def fit_problems(body: SiteBody, config: dict[str, Any]) -> list[str]:
     """Why the body does not fit the domain (with the runout room and a cell of head room), if it does not."""
-    from rgns.geometry import polygon_problems
-
     domain, mesh = config["domain"], config["mesh"]
     cell, room = mesh["cell_size_m"], config["geometry"]["runout_room_m"]
     problems = polygon_problems(body.vertices, domain["length_m"], domain["height_m"], room, headroom=cell)
     if not problems:
         return []
     spacing = cell / mesh["particles_per_cell"]
-    area = float(0.5 * abs(np.dot(body.vertices[:, 0], np.roll(body.vertices[:, 1], -1))
-                           - np.dot(np.roll(body.vertices[:, 0], -1), body.vertices[:, 1])))
+    area = abs(signed_area(body.vertices))
     length = body.vertices[:, 0].max() + room
     height = body.vertices[:, 1].max() + cell
     return [f"site: the soil body ({body.vertices[:, 0].max():.1f} m long, {body.vertices[:, 1].max():.1f} m high) "

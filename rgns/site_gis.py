@@ -155,12 +155,12 @@ def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, An
 
 def write_site_gis(table: pd.DataFrame, zoning: dict[str, Any], section: Section, settings: dict[str, Any],
                    outputs: dict[str, str]) -> dict[str, Any]:
-    """zones.geojson, exceedance.csv and (for a DEM) map.png of one site."""
+    """zones.geojson, exceedance.csv and (for a DEM, ``settings["section"]["dem"]``) map.png of one site."""
     features = zone_features(zoning, section, settings["chainage_from_m"], settings["domain_length_m"],
                              settings["name"])
     Path(outputs["zones"]).write_text(json.dumps(features, indent=1) + "\n")
     write_csv(exceedance_by_chainage(table, section, settings["chainage_from_m"], settings["domain_length_m"],
                                      settings["resolution_m"], settings["confidence"]), outputs["exceedance"])
     if "map" in outputs:
-        plot_map_view(settings["dem"], section, features, zoning["levels"], settings["name"], outputs["map"])
+        plot_map_view(settings["section"]["dem"], section, features, zoning["levels"], settings["name"], outputs["map"])
     return features

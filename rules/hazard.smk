@@ -52,7 +52,7 @@ rule report:
         hazard=expand("results/report/{case}/{name}", case=MC_CASES,
                       name=["exceedance.png", "exceedance.json", "convergence.png", "convergence.json",
                             "zoning.png", "zoning.json"] + MULTIFIDELITY_FILES)
-        + [f"results/site/{case}/map.png" for case in MC_CASES if "map.png" in SITE_FILES and case == SITE["name"]],
+        + ([f"results/site/{SITE['name']}/map.png"] if "map.png" in SITE_FILES else []),
     output:
         "results/report/report.html",
     params:

@@ -21,7 +21,6 @@ def site_gis_params(wildcards):
         "domain_length_m": config["domain"]["length_m"],
         "resolution_m": hazard["zoning_resolution_m"],
         "confidence": hazard["confidence"],
-        "dem": SITE["section"].get("dem"),
     }
 
 

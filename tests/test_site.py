@@ -135,7 +135,7 @@ def test_zones_geojson_reads_back_in_gdal_with_the_crs_on_the_line_and_in_order(
     outputs = {"zones": tmp_path / "zones.geojson", "exceedance": tmp_path / "exceedance.csv",
                "map": tmp_path / "map.png"}
     settings = {"name": "hill", "chainage_from_m": 5.0, "domain_length_m": 40.0, "resolution_m": 0.25,
-                "confidence": 0.95, "dem": str(dem)}
+                "confidence": 0.95, "section": {"dem": str(dem)}}
     write_site_gis(_table(), ZONING, section, settings, outputs)
     meta, lines, attributes = _linestrings(outputs["zones"])
     assert meta["crs"] == CRS and meta["geometry_type"] == "LineString"
