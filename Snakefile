@@ -37,6 +37,7 @@ include: "rules/hazard.smk"
 localrules:
     mc_collect,
     mc_paired_collect,
+    paired_plan,
     exceedance,
     zoning,
     multifidelity,

@@ -8,7 +8,8 @@ on the 1 m grid so every mesh samples the same field) is run by the embedded MPM
 (the high fidelity: 1.2 % of range from the 0.5 m / cfl 0.1 reference in ``suite.md``) and by the
 cheap routes: the MPM at 1 m (the default) and at 2 m, and, when ``benchmarks/results/mc_routes.json``
 holds them for the same realizations, the shipped GNS. Wall time per realization is measured per
-route (one thread per worker; each chunk runs every MPM route in turn, so load weighs on each alike).
+route (one thread per worker; each batch of montecarlo.batch_size runs every MPM route in turn, so
+load weighs on each alike).
 
 The pool is the population: its high-fidelity mean of each quantity Q (mean R; P(R > r) at r =
 the pool's 50 % and 10 % exceedance distances) is the reference. At equal wall time B, plain MC
@@ -37,14 +38,17 @@ import torch  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
 from rgns.montecarlo import simulate_mpm  # noqa: E402
-from rgns.multifidelity import optimal_ratio, point_estimate, speedup  # noqa: E402
+from rgns.multifidelity import (optimal_ratio, point_estimate, predicted_exceedance,  # noqa: E402
+                                regression_point_estimate, speedup)
 from rgns.realizations import FINISHED, draw_realization  # noqa: E402
 from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the same drawing and measuring)
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
 HIGH = "MPM 0.5 m"
-MPM_ROUTES = {HIGH: 0.5, "MPM 1 m": 1.0, "MPM 2 m": 2.0}
+# name: (cell size, overrides of mpm.embedded); "cfl 0.8" is montecarlo.embedded's default (larger steps)
+MPM_ROUTES = {HIGH: (0.5, {}), "MPM 1 m": (1.0, {}), "MPM 1 m, cfl 0.8": (1.0, {"cfl": 0.8, "dt_max_s": 0.0125}),
+              "MPM 2 m": (2.0, {})}
 DRAWS = 2000
 
 
@@ -53,9 +57,9 @@ def run_chunk(indices: list[int]) -> dict[str, tuple[list[dict], float]]:
     another on the same realizations, so the machine's load weighs on each alike)."""
     torch.set_num_threads(1)
     config = load_config(REPO / "config" / "config.yaml")
-    mpm = config["mpm"]
     out = {}
-    for name, cell_size_m in MPM_ROUTES.items():
+    for name, (cell_size_m, embedded) in MPM_ROUTES.items():
+        mpm = {**config["mpm"], "embedded": {**config["mpm"].get("embedded", {}), **embedded}}
         batch = [draw_realization(case_inputs(config, "case1", cell_size_m), i) for i in indices]
         start = time.perf_counter()
         simulated = simulate_mpm(batch, mpm, int(round(mpm["duration_s"] / mpm["frame_interval_s"])) + 1, keep="ends")
@@ -67,8 +71,10 @@ def run_chunk(indices: list[int]) -> dict[str, tuple[list[dict], float]]:
 
 
 def run_routes(n: int, workers: int) -> dict:
-    """Every MPM route over realizations 0..n-1, in chunks of 4 spread over ``workers`` processes."""
-    chunks = [list(range(i, min(i + 4, n))) for i in range(0, n, 4)]
+    """Every MPM route over realizations 0..n-1, in batches of montecarlo.batch_size (as the pipeline's
+    chunks run them) spread over ``workers`` processes."""
+    size = load_config(REPO / "config" / "config.yaml")["montecarlo"]["batch_size"]
+    chunks = [list(range(i, min(i + size, n))) for i in range(0, n, size)]
     with ProcessPoolExecutor(workers) as pool:
         results = []
         for done, result in enumerate(pool.map(run_chunk, chunks), start=1):
@@ -91,57 +97,70 @@ def add_gns_route(routes: dict, n: int) -> None:
             routes["GNS (shipped)"] = {"rows": record["rows"][:n], "s_per_realization": record["s_per_realization"]}
 
 
-def quantities(runout: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
-    """[N, 3]: R, 1[R > r50], 1[R > r10]."""
-    return np.column_stack([runout, (runout[:, None] > thresholds[None, :]).astype(float)])
+QUANTITY_NAMES = ("mean R", "P(R > r50)", "P(R > r10)", "P(R > r50), regression", "P(R > r10), regression")
+
+
+def mse_over_draws(high_r: np.ndarray, low_r: np.ndarray, thresholds: np.ndarray, n_pairs: int, n_low: int,
+                   k: int, truth: float, rng: np.random.Generator) -> float:
+    """Mean squared error of quantity k's multi-fidelity estimate over DRAWS draws of n_pairs paired and
+    n_low − n_pairs unpaired realizations (with replacement) from the pool."""
+    pick = rng.integers(0, high_r.size, (DRAWS, n_low))
+    h, low = high_r[pick[:, :n_pairs]], low_r[pick]
+    if k == 0:
+        estimate = point_estimate(h, low[:, :n_pairs], low[:, n_pairs:], axis=1)
+    elif k < 3:
+        t = thresholds[k - 1]
+        estimate = point_estimate((h > t).astype(float), (low[:, :n_pairs] > t).astype(float),
+                                  (low[:, n_pairs:] > t).astype(float), axis=1)
+    else:
+        estimate = regression_point_estimate(h[..., None], low[:, :n_pairs, None], low[:, n_pairs:, None],
+                                             thresholds[[k - 3]])[:, 0]
+    return float(((estimate - truth) ** 2).mean())
 
 
 def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), seed: int = 0) -> dict:
-    """Plain high-fidelity against multi-fidelity MSE at equal wall time, per cheap route and quantity."""
+    """Plain high-fidelity against multi-fidelity MSE at equal wall time, per cheap route and quantity:
+    the mean of R, and P(R > r) by the indicator control variate 1[l > r] and by the regression one
+    (the cheap route's predicted P(h > r | l), ``rgns.multifidelity.regression_control_variate``)."""
     routes = record["routes"]
     ok = np.array([all(r["rows"][i]["status"] in FINISHED for r in routes.values())
                    for i in range(record["n"])])
     high_r = np.array([row["runout_m"] for row in routes[HIGH]["rows"]])[ok]
     thresholds = np.quantile(high_r, [0.5, 0.9])
-    high_q = quantities(high_r, thresholds)
+    high_q = np.column_stack([high_r, high_r[:, None] > thresholds, high_r[:, None] > thresholds])
     truth = high_q.mean(axis=0)
     c_high = routes[HIGH]["s_per_realization"]
     rng = np.random.default_rng(seed)
-    size = high_r.size
-    out = {"thresholds_m": thresholds.tolist(), "truth": truth.tolist(), "n_ok": int(ok.sum()), "cheap": {}}
+    out = {"thresholds_m": thresholds.tolist(), "truth": truth.tolist(), "n_ok": int(ok.sum()),
+           "quantities": list(QUANTITY_NAMES), "cheap": {}}
     for name, route in routes.items():
         if name == HIGH:
             continue
-        low_q = quantities(np.array([row["runout_m"] for row in route["rows"]])[ok], thresholds)
+        low_r = np.array([row["runout_m"] for row in route["rows"]])[ok]
+        predicted = predicted_exceedance(high_r, low_r, low_r, thresholds)  # the pool's regression control variate
+        low_q = np.column_stack([low_r, low_r[:, None] > thresholds, predicted])
         c_low = route["s_per_realization"]
         correlation = [float(np.corrcoef(high_q[:, k], low_q[:, k])[0, 1]) if low_q[:, k].std() > 0 else 0.0
-                       for k in range(3)]
+                       for k in range(len(QUANTITY_NAMES))]
         ratios = [optimal_ratio(c_high, c_low, rho) for rho in correlation]
         result = {"s_per_realization": c_low, "correlation": correlation, "ratio": ratios,
-                  "bias": (low_q.mean(0) - truth).tolist(),
+                  "bias": (np.column_stack([low_r, low_r[:, None] > thresholds, low_r[:, None] > thresholds]).mean(0)
+                           - truth).tolist(),
                   "predicted_speedup": [speedup(c_high, c_low, rho) for rho in correlation], "budgets": []}
         for budget in budgets_in_high_runs:
-            plain = np.array([high_q[rng.integers(0, size, budget)].mean(0) for _ in range(DRAWS)])
+            plain = np.array([high_q[rng.integers(0, high_r.size, budget)].mean(0) for _ in range(DRAWS)])
             row = {"high_runs": budget, "n_pairs": [], "n_low": [], "mse_plain": ((plain - truth) ** 2).mean(0).tolist(),
                    "mse_multi": []}
             for k, ratio in enumerate(ratios):  # each quantity with its own optimal allocation
-                n_pairs = max(2, int(budget * c_high // (c_high + ratio * c_low)))
+                n_pairs = max(3, int(budget * c_high // (c_high + ratio * c_low)))
                 n_low = max(n_pairs, int((budget - n_pairs) * c_high // c_low))
-                multi = []
-                for _ in range(DRAWS):
-                    pick = rng.integers(0, size, n_low)
-                    multi.append(point_estimate(high_q[pick[:n_pairs], k], low_q[pick[:n_pairs], k],
-                                                low_q[pick[n_pairs:], k], axis=0))
                 row["n_pairs"].append(n_pairs)
                 row["n_low"].append(n_low)
-                row["mse_multi"].append(float(((np.array(multi) - truth[k]) ** 2).mean()))
+                row["mse_multi"].append(mse_over_draws(high_r, low_r, thresholds, n_pairs, n_low, k, truth[k], rng))
             row["speedup"] = (np.array(row["mse_plain"]) / np.array(row["mse_multi"])).tolist()
             result["budgets"].append(row)
         out["cheap"][name] = result
     return out
-
-
-QUANTITY_NAMES = ("mean R", "P(R > r50)", "P(R > r10)")
 
 
 def markdown(record: dict) -> str:
@@ -163,7 +182,7 @@ def markdown(record: dict) -> str:
 
 def plot(record: dict, path: Path) -> None:
     a = record["analysis"]
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    fig, axes = plt.subplots(1, len(QUANTITY_NAMES), figsize=(4.3 * len(QUANTITY_NAMES), 4))
     c_high = record["routes"][HIGH]["s_per_realization"]
     for k, (ax, quantity) in enumerate(zip(axes, QUANTITY_NAMES)):
         first = next(iter(a["cheap"].values()))

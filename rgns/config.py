@@ -177,6 +177,10 @@ def _montecarlo_errors(config: dict[str, Any]) -> list[str]:
     if fidelity["paired"] and not 2 <= fidelity["paired"] <= section["realizations"]:
         errors.append(f"config key 'montecarlo.fidelity.paired' = {fidelity['paired']!r}: 0 (off) or between 2 "
                       f"and montecarlo.realizations = {section['realizations']}")
+    cap = fidelity["max_paired"]
+    if cap is not None and not fidelity["paired"] <= cap <= section["realizations"]:
+        errors.append(f"config key 'montecarlo.fidelity.max_paired' = {cap!r}: between montecarlo.fidelity.paired = "
+                      f"{fidelity['paired']} and montecarlo.realizations = {section['realizations']}")
     if fidelity["paired"] and fidelity["high_cell_size_m"] >= config["mesh"]["cell_size_m"]:
         errors.append(f"config key 'montecarlo.fidelity.high_cell_size_m' = {fidelity['high_cell_size_m']!r}: "
                       f"must be finer than mesh.cell_size_m = {config['mesh']['cell_size_m']!r}")

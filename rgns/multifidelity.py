@@ -10,8 +10,12 @@ paired with ``h``, same realization, same field),
 is unbiased for the high-fidelity mean whatever the low-fidelity model's bias (up to the O(1/n)
 bias of the estimated weight), with a variance that falls with the correlation of the two. The
 interval is a stratified bootstrap (scipy.stats.bootstrap over the paired and the unpaired
-realizations), so it carries the uncertainty of the weight. Every quantity is a mean: an
-exceedance probability is the mean of an indicator 1[R > r].
+realizations, at Hesterberg's expanded percentile level for a few tens of pairs), so it carries
+the uncertainty of the weight. Every quantity is a mean: an exceedance probability is the mean of
+an indicator 1[R > r]. For those, :func:`regression_control_variate` uses the cheap route's
+predicted probability P(h > r | l) as the control variate instead of its own indicator 1[l > r],
+which correlates poorly with 1[h > r] wherever the two routes put a realization on different
+sides of r.
 """
 from __future__ import annotations
 
@@ -45,6 +49,15 @@ class ControlVariateEstimate:
     n_paired: int
     n_low: int
     confidence: float
+
+
+def expanded_level(confidence: float, n: int) -> float:
+    """The percentile bootstrap's level that makes a ``confidence`` interval from n pairs: Hesterberg's
+    expanded percentile interval (2015, "What teachers should know about the bootstrap"), z' =
+    sqrt(n / (n - 1)) t_{n-1}. The plain percentile interval is too narrow for a few tens of pairs
+    (measured: 92 % coverage for a nominal 95 % with 20 pairs)."""
+    z = math.sqrt(n / (n - 1)) * stats.t.ppf(0.5 + confidence / 2.0, n - 1)
+    return float(2.0 * stats.norm.cdf(z) - 1.0)
 
 
 def _sums(high: np.ndarray, low: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -99,7 +112,7 @@ def control_variate(high: np.ndarray, low: np.ndarray, confidence: float = 0.95,
     samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
     estimate = point_estimate(h2, l2[:n], l2[n:] if big_n > n else None, axis=0)
     boot = stats.bootstrap(samples, statistic, paired=False, vectorized=True, n_resamples=resamples,
-                           confidence_level=confidence, method="percentile", batch=max(1, 4_000_000 // max(1, n * h2.shape[1])),
+                           confidence_level=expanded_level(confidence, n), method="percentile", batch=max(1, 4_000_000 // max(1, n * h2.shape[1])),
                            random_state=np.random.default_rng(seed))
     lower, upper = boot.confidence_interval
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)  # a degenerate bootstrap: the point
@@ -111,6 +124,118 @@ def control_variate(high: np.ndarray, low: np.ndarray, confidence: float = 0.95,
         high_mean=h2.mean(0).reshape(shape), low_mean=l2.mean(0).reshape(shape),
         weight=_weight(h2, l2[:n], axis=0).reshape(shape), correlation=correlation.reshape(shape),
         bias=(l2[:n].mean(0) - h2.mean(0)).reshape(shape), n_paired=n, n_low=big_n, confidence=confidence)
+
+
+def predicted_exceedance(high_p: np.ndarray, low_p: np.ndarray, low: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
+    """The control variate of 1[h > t]: P(h > t | l) under h = a + b l + N(0, s²), a, b and s fitted by
+    least squares on the pairs finite at both fidelities, evaluated at every low-fidelity value.
+
+    ``high_p``, ``low_p`` [..., n] (pairs), ``low`` [..., M] (where to evaluate), ``thresholds`` [T]
+    → [..., M, T]. A non-finite low value (nothing moved) gives 1[l > t]; a perfect cheap model
+    (s = 0) gives the step 1[l > t] itself."""
+    finite = np.isfinite(high_p) & np.isfinite(low_p)
+    count = finite.sum(-1, keepdims=True)
+    h, l = np.where(finite, high_p, 0.0), np.where(finite, low_p, 0.0)
+    mean_h = h.sum(-1, keepdims=True) / np.maximum(count, 1)
+    mean_l = l.sum(-1, keepdims=True) / np.maximum(count, 1)
+    dh, dl = np.where(finite, h - mean_h, 0.0), np.where(finite, l - mean_l, 0.0)
+    var, cov = (dl * dl).sum(-1, keepdims=True), (dh * dl).sum(-1, keepdims=True)
+    slope = np.divide(cov, var, out=np.zeros_like(cov), where=var > 1e-12)
+    residual = np.where(finite, dh - slope * dl, 0.0)
+    scale = np.sqrt((residual ** 2).sum(-1, keepdims=True) / np.maximum(count - 2, 1))
+    scale = np.maximum(scale, 1e-9 * (1.0 + np.sqrt(var / np.maximum(count, 1))))
+    predicted = mean_h + slope * (low - mean_l)  # [..., M]
+    smooth = stats.norm.cdf((predicted[..., None] - thresholds) / scale[..., None])
+    step = low[..., None] > thresholds
+    return np.where(np.isfinite(low)[..., None], smooth, step)
+
+
+def regression_point_estimate(high_p: np.ndarray, low_p: np.ndarray, low_u: np.ndarray | None,
+                              thresholds: np.ndarray, signs: np.ndarray | None = None,
+                              inclusive: np.ndarray | None = None) -> np.ndarray:
+    """sum_k sign_k P(v_k > t) (≥ where ``inclusive``) from pairs [..., n, K] and unpaired low values
+    [..., M, K], each term mean_n(1[h > t] − g) + mean_N(g) with g the regression control variate
+    → [..., T]."""
+    columns = high_p.shape[-1]
+    signs = np.ones(columns) if signs is None else signs
+    inclusive = np.zeros(columns, dtype=bool) if inclusive is None else inclusive
+    total = 0.0
+    for k in range(columns):
+        h, l = high_p[..., k], low_p[..., k]
+        every = l if low_u is None else np.concatenate([l, low_u[..., k]], axis=-1)
+        g_all = predicted_exceedance(h, l, every, thresholds)  # [..., N, T]
+        hit = (h[..., None] >= thresholds) if inclusive[k] else (h[..., None] > thresholds)  # [..., n, T]
+        total = total + signs[k] * (hit.mean(-2) - g_all[..., : h.shape[-1], :].mean(-2) + g_all.mean(-2))
+    return total
+
+
+def regression_control_variate(high: np.ndarray, low: np.ndarray, thresholds: np.ndarray,
+                               signs: np.ndarray | None = None, inclusive: np.ndarray | None = None,
+                               confidence: float = 0.95, resamples: int = RESAMPLES,
+                               seed: int = 0) -> ControlVariateEstimate:
+    """Exceedance probabilities sum_k sign_k P(v_k > t) of the high-fidelity values, for every threshold t.
+
+    The difference (model-assisted) estimator mean over N of g + mean over the n pairs of
+    (1[h > t] − g), where the control variate g of 1[h > t] is the cheap route's *predicted*
+    probability P(h > t | l) (a linear regression of h on l over the pairs, Gaussian residuals),
+    not its own indicator 1[l > t]: a realization near t that the two routes put on different
+    sides no longer breaks the correlation, so the variance falls much further. Any fixed g leaves
+    the estimate unbiased, and the weight 1 is the optimal one when g is the conditional
+    probability, so none is estimated: a tail that no pair reaches keeps the cheap runs' predicted
+    probability. The fit's O(1/n) bias is what remains; the bootstrap refits g in every resample,
+    so the interval carries its uncertainty. ``high`` [n] or [n, K], ``low`` [N] or [N, K] (the
+    first n paired); K columns are combined with ``signs`` (e.g. P(front ≥ x) − P(rear > x) for
+    P(x affected); ``inclusive`` marks the columns compared with ≥). NaN marks a realization with
+    nothing to measure (it never exceeds). The correlation reported is that of 1[h > t] with g over
+    the pairs (what sets the variance), the bias the cheap route's own (its indicators), the weight 1.
+    """
+    high = np.asarray(high, dtype=float).reshape(len(high), -1)
+    low = np.asarray(low, dtype=float).reshape(len(low), -1)
+    thresholds = np.asarray(thresholds, dtype=float).ravel()
+    n, big_n, k = high.shape[0], low.shape[0], high.shape[1]
+    if low.shape[1] != k:
+        raise MultiFidelityError(f"high- and low-fidelity values differ in columns: {k} vs {low.shape[1]}")
+    if n < 2 or big_n < n:
+        raise MultiFidelityError(f"need at least 2 paired realizations and no more than the {big_n} low-fidelity "
+                                 f"ones, got {n}")
+    if np.isinf(high).any() or np.isinf(low).any():
+        raise MultiFidelityError("high- or low-fidelity values hold infinity (a diverged run?)")
+    signs = np.ones(k) if signs is None else np.asarray(signs, dtype=float)
+    inclusive = np.zeros(k, dtype=bool) if inclusive is None else np.asarray(inclusive, dtype=bool)
+
+    def statistic(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
+        pick = indices[0].astype(int)
+        low_u = low[n + indices[1].astype(int)] if len(indices) > 1 else None
+        value = regression_point_estimate(high[pick], low[pick], low_u, thresholds, signs, inclusive)  # [..., T]
+        return np.moveaxis(value, -1, 0)
+
+    samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
+    estimate = regression_point_estimate(high, low[:n], low[n:] if big_n > n else None, thresholds, signs, inclusive)
+    boot = stats.bootstrap(samples, statistic, paired=False, vectorized=True, n_resamples=resamples,
+                           confidence_level=expanded_level(confidence, n), method="percentile",
+                           batch=max(1, 2_000_000 // max(1, big_n * thresholds.size * k)),
+                           random_state=np.random.default_rng(seed))
+    lower, upper = boot.confidence_interval
+    lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)
+
+    def indicators(values: np.ndarray) -> list[np.ndarray]:
+        return [((values[:, j, None] >= thresholds) if inclusive[j] else (values[:, j, None] > thresholds)).astype(float)
+                for j in range(k)]
+
+    def combined_mean(columns: list[np.ndarray]) -> np.ndarray:  # summed as the estimate sums its terms
+        return sum(signs[j] * columns[j].mean(0) for j in range(k))
+
+    h_columns, l_columns = indicators(high), indicators(low)
+    h_ind = sum(signs[j] * h_columns[j] for j in range(k))
+    g_pairs = sum(signs[j] * predicted_exceedance(high[:, j], low[:n, j], low[:n, j], thresholds) for j in range(k))
+    var_h, var_l, cov = _sums(h_ind, g_pairs, axis=0)
+    denominator = np.sqrt(var_h * var_l)
+    correlation = np.divide(cov, denominator, out=np.full(thresholds.size, np.nan), where=denominator > 0)
+    high_mean = combined_mean(h_columns)
+    return ControlVariateEstimate(
+        estimate=estimate, lower=np.asarray(lower), upper=np.asarray(upper), high_mean=high_mean,
+        low_mean=combined_mean(l_columns), weight=np.ones(thresholds.size), correlation=correlation,
+        bias=combined_mean([c[:n] for c in l_columns]) - high_mean, n_paired=n, n_low=big_n, confidence=confidence)
 
 
 def exceedance_indicators(values: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
@@ -163,6 +288,19 @@ def allocate(cost_high: float, cost_low: float, correlation: float, std_high: fl
     cost = n_high * cost_high + n_low * cost_low
     plain_cost = std_high ** 2 / variance * cost_high
     return Allocation(n_high, n_low, ratio, variance, cost, plain_cost, plain_cost / cost)
+
+
+def pairs_for_half_width(std_high: float, correlation: float, n_low: int, half_width: float,
+                         confidence: float = 0.95) -> float:
+    """Paired runs n for which the control-variate estimate of a mean, from n pairs among ``n_low`` cheap
+    runs, reaches ``half_width`` (normal approximation; variance std² ((1 − ρ²) / n + ρ² / N) at the
+    optimal weight). Infinite where the N cheap runs cannot: ρ² std² / N alone exceeds the target."""
+    if half_width <= 0:
+        raise MultiFidelityError(f"the target half-width must be positive, got {half_width}")
+    target = (half_width / stats.norm.ppf(0.5 + confidence / 2.0)) ** 2
+    rho2 = min(float(correlation) ** 2, 1.0)
+    floor = std_high ** 2 * rho2 / n_low
+    return math.inf if floor >= target else std_high ** 2 * (1.0 - rho2) / (target - floor)
 
 
 def speedup(cost_high: float, cost_low: float, correlation: float) -> float:

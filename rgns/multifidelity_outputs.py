@@ -1,14 +1,17 @@
 """Rule multifidelity: a case's exceedance curves and zoning corrected towards the accurate MPM.
 
 The Monte Carlo table (the cheap route: its simulator after the gate) and the paired table (the
-first realizations again, by the MPM at the accurate mesh) are combined with
-:func:`rgns.multifidelity.control_variate` for every quantity that is a mean: P(R > d) and
-P(I > d) at every distance d, P(x affected) at every point of the zoning profile, and the means of
-R, V and I. Costs come from the Snakemake benchmark files of the chunks.
+first realizations again, by the MPM at the accurate mesh) are combined for every quantity that
+is a mean: the means of R, V and I by :func:`rgns.multifidelity.control_variate`; P(R > d) and
+P(I > d) at every distance d, and P(x affected) = P(front ≥ x) − P(back scarp > x) at every point
+of the zoning profile, by :func:`rgns.multifidelity.regression_control_variate` (the cheap route's
+predicted exceedance as control variate: an indicator 1[l > d] correlates poorly with 1[h > d]
+near d). Costs come from the Snakemake benchmark files of the chunks.
 """
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -19,10 +22,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from scipy import stats  # noqa: E402
 
 from rgns.hazard import ZONE_LEVELS, zone_levels, zones  # noqa: E402
 from rgns.multifidelity import (ControlVariateEstimate, MultiFidelityError, allocate, control_variate,  # noqa: E402
-                                exceedance_indicators, optimal_ratio, speedup)
+                                optimal_ratio, pairs_for_half_width, regression_control_variate, speedup)
 from rgns.realizations import FINISHED  # noqa: E402
 
 METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
@@ -47,13 +51,6 @@ def costs(low_benchmarks: list[str], n_low: int, high_benchmarks: list[str], n_h
     def seconds(paths: list[str]) -> float:
         return float(sum(pd.read_csv(path, sep="\t")["s"].sum() for path in paths))
     return {"low_s": seconds(low_benchmarks) / n_low, "high_s": seconds(high_benchmarks) / n_high}
-
-
-def affected(table: pd.DataFrame, x_m: np.ndarray) -> np.ndarray:
-    """[N, X] indicators: point x lies between a realization's back scarp and front (0 where none moved)."""
-    rear, front = table["rear_x_m"].to_numpy(float)[:, None], table["front_x_m"].to_numpy(float)[:, None]
-    with np.errstate(invalid="ignore"):
-        return ((rear <= x_m[None, :]) & (x_m[None, :] <= front)).astype(float)
 
 
 def _estimate_record(estimate: ControlVariateEstimate) -> dict[str, Any]:
@@ -87,8 +84,8 @@ def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cos
     for key in CURVES:
         top = max(low[key].max(), high[key].max())
         d_m = np.arange(0.0, top + DISTANCE_STEP_M, DISTANCE_STEP_M)
-        estimate = control_variate(exceedance_indicators(high[key], d_m), exceedance_indicators(low[key], d_m),
-                                   confidence, seed=seed)
+        estimate = regression_control_variate(high[key].to_numpy(float), low[key].to_numpy(float), d_m,
+                                              confidence=confidence, seed=seed)
         corrected, uncorrected = rearranged(estimate.estimate), estimate.low_mean  # low_mean: over all N
         record["exceedance"][key] = {
             "d_m": d_m.tolist(), "uncorrected": uncorrected.tolist(),
@@ -98,7 +95,9 @@ def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cos
                                    "corrected": distance_at(d_m, corrected, p)}
                           for p in settings["exceedance_probabilities"]}}
     x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
-    estimate = control_variate(affected(high, x_m), affected(low, x_m), confidence, seed=seed)
+    estimate = regression_control_variate(high[["front_x_m", "rear_x_m"]].to_numpy(float),
+                                          low[["front_x_m", "rear_x_m"]].to_numpy(float), x_m, signs=[1.0, -1.0],
+                                          inclusive=[True, False], confidence=confidence, seed=seed)
     probability, uncorrected = np.clip(estimate.estimate, 0.0, 1.0), estimate.low_mean
     thresholds = settings["thresholds"]
     record["zoning"] = {
@@ -147,11 +146,37 @@ def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
     plt.close(fig)
 
 
+def plan_pairs(low: pd.DataFrame, pilot: pd.DataFrame, settings: dict[str, Any]) -> dict[str, Any]:
+    """How many realizations to pair for ``target_half_width_m`` on the mean runout, in whole chunks: from
+    the pilot pairs' std and correlation and the N cheap runs (:func:`pairs_for_half_width`), at least
+    the pilot and at most ``max_paired`` (``realizations`` when null) rounded up to a whole chunk."""
+    low_rows, high_rows = paired_rows(low, pilot)
+    h = high_rows["runout_m"].to_numpy(float)
+    l = low_rows["runout_m"].to_numpy(float)[: len(h)]
+    std = float(h.std(ddof=1))
+    rho = float(np.corrcoef(h, l)[0, 1]) if std > 0 and l.std() > 0 else 0.0
+    target, confidence = settings["target_half_width_m"], settings["confidence"]
+    needed = pairs_for_half_width(std, rho, len(low_rows), target, confidence)
+    realizations, chunk = settings["realizations"], settings["chunk_size"]
+    cap = settings["max_paired"] or realizations
+    wanted = min(max(len(pilot), math.ceil(needed) if math.isfinite(needed) else cap), cap)
+    chunks = -(-wanted // chunk)
+    n_paired = min(chunks * chunk, realizations)
+    z = stats.norm.ppf(0.5 + confidence / 2.0)
+    half_width = z * std * math.sqrt((1 - rho ** 2) / n_paired + rho ** 2 / len(low_rows))
+    return {"target_half_width_m": target, "pilot": len(pilot), "n_low": len(low_rows), "std_m": std,
+            "correlation": rho, "needed": needed if math.isfinite(needed) else None, "cap": cap,
+            "chunks": chunks, "n_paired": n_paired, "predicted_half_width_m": half_width,
+            "reached": bool(half_width <= target + 1e-12)}
+
+
 def write_multifidelity(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float],
-                        outputs: dict[str, str], case: str) -> dict[str, Any]:
-    """Correct, then write the JSON and the figure."""
+                        outputs: dict[str, str], case: str, plan: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Correct, then write the JSON (with the paired-run ``plan`` where one chose the pairs) and the figure."""
     record = correct(low, high, settings, cost)
     record["levels"] = list(ZONE_LEVELS)
+    if plan is not None:
+        record["plan"] = plan
     Path(outputs["json"]).write_text(json.dumps(record, indent=1, default=float) + "\n")
     plot(record, outputs["figure"], case)
     return record

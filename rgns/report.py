@@ -129,6 +129,20 @@ def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> 
         parts.append(paragraph(f"For a {record['confidence']:.0%} half-width of {target['half_width_m']:g} m on the "
                                f"mean runout: {target['n_high']} paired and {target['n_low']} cheap realizations "
                                f"({target['cost']:.0f} s against {target['plain_cost']:.0f} s by the accurate MPM alone)."))
+    if "plan" in record:
+        plan = record["plan"]
+        if plan["reached"]:
+            verdict = "reached"
+        elif plan["needed"] is None:
+            verdict = (f"NOT reachable with {plan['n_low']} cheap realizations, whatever the pairs "
+                       "(raise montecarlo.realizations)")
+        else:
+            verdict = f"NOT reached within the cap of {plan['cap']} pairs (montecarlo.fidelity.max_paired)"
+        parts.append(paragraph(
+            f"Pairs chosen by the run for a {record['confidence']:.0%} half-width of {plan['target_half_width_m']:g} m "
+            f"on the mean runout: from a pilot of {plan['pilot']} pairs (std of R {plan['std_m']:.2f} m, correlation "
+            f"{plan['correlation']:.3f}) and {plan['n_low']} cheap realizations, {plan['n_paired']} paired; predicted "
+            f"half-width {plan['predicted_half_width_m']:.3g} m, {verdict}."))
     parts += [table(pd.DataFrame(record["zoning"]["zones_corrected"]), 2),
               figure(files["multifidelity.png"], caption("multifidelity", case=case))]
     report.add(f"Hazard: {case} — multi-fidelity correction", *parts)

@@ -1,7 +1,9 @@
 # Helpers shared by the rule files: which realizations exist, and the config slice each rule
 # gets through params (so a config change re-runs only the rules that read the changed keys).
 import copy
+import json
 from dataclasses import asdict
+from pathlib import Path
 
 from rgns.fields import FIELD_KEYS
 from rgns.geometry import DRAW_KEYS
@@ -142,26 +144,51 @@ def mc_run_params(wildcards):
     section = config["montecarlo"]
     return {
         "montecarlo": {key: section[key] for key in ("simulator", "batch_size", "duration_s", "device", "keep_frames",
-                                                     "rollout", "screen")},
+                                                     "rollout", "screen", "mpm_steps")},
         "mpm": config["mpm"],
         "metrics": config["metrics"],
     }
 
 
+# with montecarlo.fidelity.target_half_width_m the pairs are chosen by checkpoint paired_plan
+ADAPTIVE_PAIRS = bool(config["montecarlo"]["fidelity"]["paired"] and config["montecarlo"]["fidelity"]["target_half_width_m"])
+
+
 def mc_paired_chunk_ids(case):
-    """Chunk ids holding the first montecarlo.fidelity.paired realizations."""
+    """Chunk ids holding the first montecarlo.fidelity.paired realizations (the pilot, when adaptive)."""
     section = config["montecarlo"]
     return [f"{k:03d}" for k in range(-(-section["fidelity"]["paired"] // section["chunk_size"]))]
 
 
 def mc_paired_chunk_indices(wildcards):
-    """Realization indices of one paired chunk: the chunk's, among the first `paired`."""
-    paired = config["montecarlo"]["fidelity"]["paired"]
-    return [i for i in mc_chunk_indices(wildcards) if i < paired]
+    """Realization indices of one paired chunk: the chunk's, among the first `paired` (whole chunks when
+    the pairs are chosen adaptively)."""
+    section = config["montecarlo"]
+    limit = section["realizations"] if ADAPTIVE_PAIRS else section["fidelity"]["paired"]
+    return [i for i in mc_chunk_indices(wildcards) if i < limit]
+
+
+def mc_paired_pilot_chunks(wildcards):
+    return [f"results/mc/{wildcards.case}/paired/chunk_{k}.csv" for k in mc_paired_chunk_ids(wildcards.case)]
 
 
 def mc_paired_chunks(wildcards):
-    return [f"results/mc/{wildcards.case}/paired/chunk_{k}.csv" for k in mc_paired_chunk_ids(wildcards.case)]
+    """Every paired chunk of a case: the fixed count, or as many as checkpoint paired_plan decided."""
+    if not ADAPTIVE_PAIRS:
+        return mc_paired_pilot_chunks(wildcards)
+    plan = json.loads(Path(checkpoints.paired_plan.get(case=wildcards.case).output[0]).read_text())
+    return [f"results/mc/{wildcards.case}/paired/chunk_{k:03d}.csv" for k in range(plan["chunks"])]
+
+
+def mc_paired_plan(wildcards):
+    return [f"results/mc/{wildcards.case}/paired_plan.json"] if ADAPTIVE_PAIRS else []
+
+
+def paired_plan_params(wildcards):
+    section = config["montecarlo"]
+    return {key: section["fidelity"][key] for key in ("target_half_width_m", "max_paired")} | {
+        "realizations": section["realizations"], "chunk_size": section["chunk_size"],
+        "confidence": config["hazard"]["confidence"]}
 
 
 def mc_paired_case_params(wildcards):
@@ -174,9 +201,10 @@ def mc_paired_case_params(wildcards):
 
 
 def mc_paired_run_params(wildcards):
-    """The Monte Carlo settings with the embedded MPM as simulator."""
+    """The Monte Carlo settings with the embedded MPM as simulator, at mpm.embedded's own time steps."""
     params = mc_run_params(wildcards)
     params["montecarlo"]["simulator"] = "mpm"
+    params["montecarlo"]["mpm_steps"] = {}
     return params
 
 
@@ -188,7 +216,8 @@ def multifidelity_params(wildcards):
     return zoning_params(wildcards) | config["montecarlo"]["fidelity"] | {
         "exceedance_probabilities": hazard["exceedance_probabilities"],
         "low_benchmarks": [f"results/mc/{case}/chunk_{k}.benchmark.tsv" for k in mc_chunk_ids(case)],
-        "high_benchmarks": [f"results/mc/{case}/paired/chunk_{k}.benchmark.tsv" for k in mc_paired_chunk_ids(case)],
+        "high_benchmark_pattern": f"results/mc/{case}/paired/chunk_{{chunk:03d}}.benchmark.tsv",
+        "chunk_size": config["montecarlo"]["chunk_size"],
     }
 
 

@@ -88,14 +88,33 @@ rule mc_paired_chunk:
         "../workflow/scripts/mc_chunk.py"
 
 
+checkpoint paired_plan:
+    """With montecarlo.fidelity.target_half_width_m: how many realizations to pair, in whole chunks, from
+    the pilot pairs' spread and correlation and the cheap Monte Carlo (rgns.multifidelity_outputs.plan_pairs)."""
+    input:
+        realizations="results/mc/{case}/realizations.csv",
+        pilot=mc_paired_pilot_chunks,
+    output:
+        "results/mc/{case}/paired_plan.json",
+    params:
+        settings=paired_plan_params,
+    log:
+        "logs/paired_plan/{case}.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/paired_plan.py"
+
+
 rule mc_paired_collect:
-    """Concatenate a case's paired chunk tables."""
+    """Concatenate a case's paired chunk tables (as many as paired_plan chose, when it chooses)."""
     input:
         mc_paired_chunks,
     output:
         "results/mc/{case}/paired.csv",
     params:
-        realizations=config["montecarlo"]["fidelity"]["paired"],
+        realizations=None if ADAPTIVE_PAIRS else config["montecarlo"]["fidelity"]["paired"],
+        limit=config["montecarlo"]["realizations"],
         chunk_size=config["montecarlo"]["chunk_size"],
     log:
         "logs/mc_paired_collect/{case}.log",
@@ -110,6 +129,7 @@ rule multifidelity:
     input:
         realizations="results/mc/{case}/realizations.csv",
         paired="results/mc/{case}/paired.csv",
+        plan=mc_paired_plan,
     output:
         json="results/report/{case}/multifidelity.json",
         figure=report("results/report/{case}/multifidelity.png", caption="../docs/captions/multifidelity.rst",

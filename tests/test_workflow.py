@@ -145,6 +145,28 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     assert multifidelity["cost"]["high_s"] > multifidelity["cost"]["low_s"] > 0
 
 
+def test_a_target_half_width_pairs_the_chunks_the_checkpoint_chose_and_keeps_the_pilot(built, tmp_path):
+    """montecarlo.fidelity.target_half_width_m: paired_plan reads the pilot pairs and the cheap runs, and
+    mc_paired_collect then waits for the chunks it chose (here the cap: a target no run could reach)."""
+    workdir = tmp_path / "tiny"
+    shutil.copytree(built[0], workdir, symlinks=True)
+    config = copy.deepcopy(built[1])
+    config["montecarlo"]["fidelity"] = {"paired": 2, "target_half_width_m": 0.001, "max_paired": 4}
+    pilot = workdir / "results" / "mc" / "case1" / "paired" / "chunk_000.csv"
+    before = pilot.stat().st_mtime_ns
+    result = snakemake(workdir, "--cores", "2", "results/report/case1/multifidelity.json",
+                       config=write_config(tmp_path / "target.yaml", config))
+    assert result.returncode == 0, result.stderr
+    plan = json.loads((workdir / "results" / "mc" / "case1" / "paired_plan.json").read_text())
+    assert (plan["pilot"], plan["n_low"], plan["chunks"], plan["n_paired"], plan["cap"]) == (2, 6, 2, 4, 4)
+    assert not plan["reached"] and plan["predicted_half_width_m"] > 0.001
+    paired = read_csv(workdir / "results" / "mc" / "case1" / "paired.csv")
+    assert list(paired["index"]) == [0, 1, 2, 3] and (paired["n_particles"] == 4 * 120).all()
+    record = json.loads((workdir / "results" / "report" / "case1" / "multifidelity.json").read_text())
+    assert record["n_paired"] == 4 and record["plan"] == plan and record["cost"]["high_s"] > 0
+    assert pilot.stat().st_mtime_ns == before  # the pilot pairs were not run again
+
+
 def test_changing_a_zoning_threshold_reruns_only_zoning_and_the_report(built, tmp_path):
     workdir, config = built
     changed = copy.deepcopy(config)

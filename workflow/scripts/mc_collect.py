@@ -4,6 +4,9 @@ from rgns.montecarlo import collect_chunks
 from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])
-table = collect_chunks(snakemake.input, snakemake.params.realizations, snakemake.params.chunk_size)
+params = snakemake.params
+# realizations None: the paired chunks paired_plan chose, whole chunks up to montecarlo.realizations
+realizations = params.realizations or min(len(snakemake.input) * params.chunk_size, params.limit)
+table = collect_chunks(snakemake.input, realizations, params.chunk_size)
 write_csv(table, snakemake.output[0])
 log.info("%d realizations from %d chunks, %d not ok", len(table), len(snakemake.input), int((table["status"] != "ok").sum()))

@@ -1,4 +1,5 @@
 """Rule multifidelity: a case's hazard corrected towards the accurate MPM (rgns.multifidelity_outputs)."""
+import json
 from pathlib import Path
 
 from rgns.logsetup import log_to_file
@@ -8,13 +9,17 @@ from rgns.tables import read_csv
 log = log_to_file(snakemake.log[0])
 settings = snakemake.params[0]
 low, high = read_csv(snakemake.input.realizations), read_csv(snakemake.input.paired)
-measured = {name: [p for p in settings[name] if Path(p).exists()] for name in ("low_benchmarks", "high_benchmarks")}
-if all(len(measured[name]) == len(settings[name]) for name in measured):
+benchmarks = {"low_benchmarks": settings["low_benchmarks"],  # the paired chunks: as many as hold its rows
+              "high_benchmarks": [settings["high_benchmark_pattern"].format(chunk=k)
+                                  for k in range(-(-len(high) // settings["chunk_size"]))]}
+measured = {name: [p for p in paths if Path(p).exists()] for name, paths in benchmarks.items()}
+if all(len(measured[name]) == len(benchmarks[name]) for name in measured):
     cost = costs(measured["low_benchmarks"], len(low), measured["high_benchmarks"], len(high))
 else:  # chunks made before their runs were timed
     cost = {"low_s": float("nan"), "high_s": float("nan")}
     log.warning("some chunks have no benchmark file: the cost of each route is not known")
-record = write_multifidelity(low, high, settings, cost, dict(snakemake.output.items()), snakemake.wildcards.case)
+plan = json.loads(Path(snakemake.input.plan[0]).read_text()) if snakemake.input.plan else None
+record = write_multifidelity(low, high, settings, cost, dict(snakemake.output.items()), snakemake.wildcards.case, plan)
 runout = record["means"]["runout_m"]
 log.info("%s: mean R corrected %.3f m [%.3f, %.3f] from the cheap %.3f m (bias over %d pairs %+.3f m, "
          "correlation %.3f); %.2f s vs %.2f s per realization", snakemake.wildcards.case, runout["estimate"],
