@@ -135,10 +135,10 @@ def predicted_exceedance(high_p: np.ndarray, low_p: np.ndarray, low: np.ndarray,
     (s = 0) gives the step 1[l > t] itself."""
     finite = np.isfinite(high_p) & np.isfinite(low_p)
     count = finite.sum(-1, keepdims=True)
-    h, l = np.where(finite, high_p, 0.0), np.where(finite, low_p, 0.0)
-    mean_h = h.sum(-1, keepdims=True) / np.maximum(count, 1)
-    mean_l = l.sum(-1, keepdims=True) / np.maximum(count, 1)
-    dh, dl = np.where(finite, h - mean_h, 0.0), np.where(finite, l - mean_l, 0.0)
+    hi, lo = np.where(finite, high_p, 0.0), np.where(finite, low_p, 0.0)
+    mean_h = hi.sum(-1, keepdims=True) / np.maximum(count, 1)
+    mean_l = lo.sum(-1, keepdims=True) / np.maximum(count, 1)
+    dh, dl = np.where(finite, hi - mean_h, 0.0), np.where(finite, lo - mean_l, 0.0)
     var, cov = (dl * dl).sum(-1, keepdims=True), (dh * dl).sum(-1, keepdims=True)
     slope = np.divide(cov, var, out=np.zeros_like(cov), where=var > 1e-12)
     residual = np.where(finite, dh - slope * dl, 0.0)
@@ -161,11 +161,11 @@ def regression_point_estimate(high_p: np.ndarray, low_p: np.ndarray, low_u: np.n
     inclusive = np.zeros(columns, dtype=bool) if inclusive is None else inclusive
     total = 0.0
     for k in range(columns):
-        h, l = high_p[..., k], low_p[..., k]
-        every = l if low_u is None else np.concatenate([l, low_u[..., k]], axis=-1)
-        g_all = predicted_exceedance(h, l, every, thresholds)  # [..., N, T]
-        hit = (h[..., None] >= thresholds) if inclusive[k] else (h[..., None] > thresholds)  # [..., n, T]
-        total = total + signs[k] * (hit.mean(-2) - g_all[..., : h.shape[-1], :].mean(-2) + g_all.mean(-2))
+        hi, lo = high_p[..., k], low_p[..., k]
+        every = lo if low_u is None else np.concatenate([lo, low_u[..., k]], axis=-1)
+        g_all = predicted_exceedance(hi, lo, every, thresholds)  # [..., N, T]
+        hit = (hi[..., None] >= thresholds) if inclusive[k] else (hi[..., None] > thresholds)  # [..., n, T]
+        total = total + signs[k] * (hit.mean(-2) - g_all[..., : hi.shape[-1], :].mean(-2) + g_all.mean(-2))
     return total
 
 

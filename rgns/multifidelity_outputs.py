@@ -151,10 +151,10 @@ def plan_pairs(low: pd.DataFrame, pilot: pd.DataFrame, settings: dict[str, Any])
     the pilot pairs' std and correlation and the N cheap runs (:func:`pairs_for_half_width`), at least
     the pilot and at most ``max_paired`` (``realizations`` when null) rounded up to a whole chunk."""
     low_rows, high_rows = paired_rows(low, pilot)
-    h = high_rows["runout_m"].to_numpy(float)
-    l = low_rows["runout_m"].to_numpy(float)[: len(h)]
-    std = float(h.std(ddof=1))
-    rho = float(np.corrcoef(h, l)[0, 1]) if std > 0 and l.std() > 0 else 0.0
+    high_r = high_rows["runout_m"].to_numpy(float)
+    low_r = low_rows["runout_m"].to_numpy(float)[: len(high_r)]
+    std = float(high_r.std(ddof=1))
+    rho = float(np.corrcoef(high_r, low_r)[0, 1]) if std > 0 and low_r.std() > 0 else 0.0
     target, confidence = settings["target_half_width_m"], settings["confidence"]
     needed = pairs_for_half_width(std, rho, len(low_rows), target, confidence)
     realizations, chunk = settings["realizations"], settings["chunk_size"]
