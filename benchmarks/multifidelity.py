@@ -46,7 +46,7 @@ from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
 HIGH = "MPM 0.5 m"
-# name: (cell size, overrides of mpm.embedded); "cfl 0.8" is montecarlo.embedded's default (larger steps)
+# name: (cell size, overrides of mpm.embedded); CFL 0.8: larger steps, tried as the cheap route and rejected
 MPM_ROUTES = {HIGH: (0.5, {}), "MPM 1 m": (1.0, {}), "MPM 1 m, cfl 0.8": (1.0, {"cfl": 0.8, "dt_max_s": 0.0125}),
               "MPM 2 m": (2.0, {})}
 DRAWS = 2000
@@ -97,16 +97,19 @@ def add_gns_route(routes: dict, n: int) -> None:
             routes["GNS (shipped)"] = {"rows": record["rows"][:n], "s_per_realization": record["s_per_realization"]}
 
 
-QUANTITY_NAMES = ("mean R", "P(R > r50)", "P(R > r10)", "P(R > r50), regression", "P(R > r10), regression")
+QUANTITY_NAMES = ("mean R", "P(R > r50)", "P(R > r10)", "P(R > r50), regression", "P(R > r10), regression", "mean V",
+                  "mean I")
+MEANS = {0: "runout_m", 5: "volume_m2", 6: "influence_m"}  # quantity index: the metric whose mean it is
 
 
-def mse_over_draws(high_r: np.ndarray, low_r: np.ndarray, thresholds: np.ndarray, n_pairs: int, n_low: int,
+def mse_over_draws(high_v: np.ndarray, low_v: np.ndarray, thresholds: np.ndarray, n_pairs: int, n_low: int,
                    k: int, truth: float, rng: np.random.Generator) -> float:
     """Mean squared error of quantity k's multi-fidelity estimate over DRAWS draws of n_pairs paired and
-    n_low − n_pairs unpaired realizations (with replacement) from the pool."""
-    pick = rng.integers(0, high_r.size, (DRAWS, n_low))
-    h, low = high_r[pick[:, :n_pairs]], low_r[pick]
-    if k == 0:
+    n_low − n_pairs unpaired realizations (with replacement) from the pool; ``high_v``, ``low_v`` are the
+    values of the metric it is about (R, or V or I for their means)."""
+    pick = rng.integers(0, high_v.size, (DRAWS, n_low))
+    h, low = high_v[pick[:, :n_pairs]], low_v[pick]
+    if k in MEANS:
         estimate = point_estimate(h, low[:, :n_pairs], low[:, n_pairs:], axis=1)
     elif k < 3:
         t = thresholds[k - 1]
@@ -120,14 +123,21 @@ def mse_over_draws(high_r: np.ndarray, low_r: np.ndarray, thresholds: np.ndarray
 
 def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), seed: int = 0) -> dict:
     """Plain high-fidelity against multi-fidelity MSE at equal wall time, per cheap route and quantity:
-    the mean of R, and P(R > r) by the indicator control variate 1[l > r] and by the regression one
-    (the cheap route's predicted P(h > r | l), ``rgns.multifidelity.regression_control_variate``)."""
+    the means of R, V and I, and P(R > r) by the indicator control variate 1[l > r] and by the
+    regression one (the cheap route's predicted P(h > r | l), ``regression_control_variate``)."""
     routes = record["routes"]
     ok = np.array([all(r["rows"][i]["status"] in FINISHED for r in routes.values())
                    for i in range(record["n"])])
-    high_r = np.array([row["runout_m"] for row in routes[HIGH]["rows"]])[ok]
+    def values(route: dict, key: str) -> np.ndarray:
+        return np.array([row[key] for row in route["rows"]])[ok]
+
+    def metric_of(k: int) -> str:
+        return MEANS.get(k, "runout_m")
+
+    high_r = values(routes[HIGH], "runout_m")
     thresholds = np.quantile(high_r, [0.5, 0.9])
-    high_q = np.column_stack([high_r, high_r[:, None] > thresholds, high_r[:, None] > thresholds])
+    high_q = np.column_stack([high_r, high_r[:, None] > thresholds, high_r[:, None] > thresholds,
+                              values(routes[HIGH], "volume_m2"), values(routes[HIGH], "influence_m")])
     truth = high_q.mean(axis=0)
     c_high = routes[HIGH]["s_per_realization"]
     rng = np.random.default_rng(seed)
@@ -136,16 +146,17 @@ def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), s
     for name, route in routes.items():
         if name == HIGH:
             continue
-        low_r = np.array([row["runout_m"] for row in route["rows"]])[ok]
+        low_r = values(route, "runout_m")
         predicted = predicted_exceedance(high_r, low_r, low_r, thresholds)  # the pool's regression control variate
-        low_q = np.column_stack([low_r, low_r[:, None] > thresholds, predicted])
+        low_vi = [values(route, "volume_m2"), values(route, "influence_m")]
+        low_q = np.column_stack([low_r, low_r[:, None] > thresholds, predicted, *low_vi])
         c_low = route["s_per_realization"]
         correlation = [float(np.corrcoef(high_q[:, k], low_q[:, k])[0, 1]) if low_q[:, k].std() > 0 else 0.0
                        for k in range(len(QUANTITY_NAMES))]
         ratios = [optimal_ratio(c_high, c_low, rho) for rho in correlation]
         result = {"s_per_realization": c_low, "correlation": correlation, "ratio": ratios,
-                  "bias": (np.column_stack([low_r, low_r[:, None] > thresholds, low_r[:, None] > thresholds]).mean(0)
-                           - truth).tolist(),
+                  "bias": (np.column_stack([low_r, low_r[:, None] > thresholds, low_r[:, None] > thresholds,
+                                            *low_vi]).mean(0) - truth).tolist(),
                   "predicted_speedup": [speedup(c_high, c_low, rho) for rho in correlation], "budgets": []}
         for budget in budgets_in_high_runs:
             plain = np.array([high_q[rng.integers(0, high_r.size, budget)].mean(0) for _ in range(DRAWS)])
@@ -156,7 +167,8 @@ def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), s
                 n_low = max(n_pairs, int((budget - n_pairs) * c_high // c_low))
                 row["n_pairs"].append(n_pairs)
                 row["n_low"].append(n_low)
-                row["mse_multi"].append(mse_over_draws(high_r, low_r, thresholds, n_pairs, n_low, k, truth[k], rng))
+                row["mse_multi"].append(mse_over_draws(values(routes[HIGH], metric_of(k)), values(route, metric_of(k)),
+                                                       thresholds, n_pairs, n_low, k, truth[k], rng))
             row["speedup"] = (np.array(row["mse_plain"]) / np.array(row["mse_multi"])).tolist()
             result["budgets"].append(row)
         out["cheap"][name] = result

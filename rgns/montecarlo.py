@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -141,7 +141,6 @@ class RunSettings:
     keep_frames: str = "ends"
     rollout: RolloutSettings | None = None
     screen: ScreenSettings | None = None
-    mpm_steps: dict[str, Any] = field(default_factory=dict)  # over mpm.embedded where MPM is the simulator
 
     @classmethod
     def from_params(cls, params: dict[str, Any]) -> "RunSettings":
@@ -152,7 +151,7 @@ class RunSettings:
                    frame_interval_s=mpm["frame_interval_s"], metrics=MetricSettings(**params["metrics"]),
                    mpm=mpm, device=section["device"], keep_frames=section["keep_frames"],
                    rollout=rollout_settings(section["rollout"], mpm["frame_interval_s"], section["keep_frames"]),
-                   screen=ScreenSettings(**section["screen"]), mpm_steps=section.get("mpm_steps", {}))
+                   screen=ScreenSettings(**section["screen"]))
 
 
 def rollout_settings(section: dict[str, Any], frame_interval_s: float, keep: str = "all") -> RolloutSettings:
@@ -201,8 +200,7 @@ def _simulate(batch: list[Realization], settings: RunSettings, simulator: Learne
         return []
     if settings.simulator == "gns":
         return simulate_gns(simulator, batch, settings.mpm, settings.frames, settings.device, settings.rollout)
-    mpm = {**settings.mpm, "embedded": {**settings.mpm["embedded"], **settings.mpm_steps}}
-    return simulate_mpm(batch, mpm, settings.frames, settings.keep_frames)
+    return simulate_mpm(batch, settings.mpm, settings.frames, settings.keep_frames)
 
 
 def _aligned_batches(indices: list[int], batch_size: int) -> list[list[int]]:

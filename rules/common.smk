@@ -144,7 +144,7 @@ def mc_run_params(wildcards):
     section = config["montecarlo"]
     return {
         "montecarlo": {key: section[key] for key in ("simulator", "batch_size", "duration_s", "device", "keep_frames",
-                                                     "rollout", "screen", "mpm_steps")},
+                                                     "rollout", "screen")},
         "mpm": config["mpm"],
         "metrics": config["metrics"],
     }
@@ -201,10 +201,9 @@ def mc_paired_case_params(wildcards):
 
 
 def mc_paired_run_params(wildcards):
-    """The Monte Carlo settings with the embedded MPM as simulator, at mpm.embedded's own time steps."""
+    """The Monte Carlo settings with the embedded MPM as simulator."""
     params = mc_run_params(wildcards)
     params["montecarlo"]["simulator"] = "mpm"
-    params["montecarlo"]["mpm_steps"] = {}
     return params
 
 

@@ -97,24 +97,3 @@ def test_the_screen_counts_a_clearly_stable_realization_as_no_failure_and_simula
     assert table["status"].tolist() == ["ok"] and table["factor_of_safety"].iloc[0] < 0.5
     assert table["runout_m"].iloc[0] > 0.5
 
-
-def test_the_monte_carlo_mpm_takes_larger_steps_to_nearly_the_same_runout(tiny, monkeypatch):
-    """montecarlo.mpm_steps (CFL 0.8 by default) applies where MPM is the simulator; {} keeps mpm.embedded's."""
-    import rgns.montecarlo as montecarlo
-    config, inputs = tiny
-    seen = []
-    original = montecarlo.simulate_mpm
-    monkeypatch.setattr(montecarlo, "simulate_mpm", lambda batch, mpm, *args: seen.append(mpm["embedded"]) or
-                        original(batch, mpm, *args))
-    tables = {}
-    for steps in (config["montecarlo"]["mpm_steps"], {}):
-        params = {"montecarlo": config["montecarlo"] | {"simulator": "mpm", "batch_size": 2, "duration_s": 2.0,
-                                                        "mpm_steps": steps},
-                  "mpm": config["mpm"], "metrics": config["metrics"]}
-        tables[len(steps)] = run_realizations(inputs, [0, 1], RunSettings.from_params(params))
-    assert config["montecarlo"]["mpm_steps"] == {"cfl": 0.8, "dt_max_s": 0.0125}
-    assert [s["cfl"] for s in seen] == [0.8, config["mpm"]["embedded"]["cfl"]]
-    large, small = tables[2], tables[0]
-    assert (large["status"] == "ok").all()
-    np.testing.assert_allclose(large[["potential_final", "kinetic_final", "dissipated_final"]].sum(axis=1), 1.0)
-    np.testing.assert_allclose(large["runout_m"], small["runout_m"], rtol=0.1)
