@@ -127,6 +127,12 @@ def collect_chunks(paths: list[str], realizations: int, chunk_size: int) -> pd.D
     return pd.concat(tables, ignore_index=True).sort_values("index", kind="stable").reset_index(drop=True)
 
 
+def collect_whole_chunks(paths: list[str], chunk_size: int, limit: int) -> pd.DataFrame:
+    """:func:`collect_chunks` of chunks that are each whole, the last up to realization ``limit``
+    (the paired chunks a paired_plan chose)."""
+    return collect_chunks(paths, min(len(paths) * chunk_size, limit), chunk_size)
+
+
 @dataclass
 class RunSettings:
     """Config section ``montecarlo`` plus what the simulators need from elsewhere."""

@@ -126,6 +126,11 @@ def control_variate(high: np.ndarray, low: np.ndarray, confidence: float = 0.95,
         bias=(l2[:n].mean(0) - h2.mean(0)).reshape(shape), n_paired=n, n_low=big_n, confidence=confidence)
 
 
+def _exceeds(values: np.ndarray, thresholds: np.ndarray, inclusive: bool) -> np.ndarray:
+    """[..., T] 1[value ≥ t] where ``inclusive``, else 1[value > t] (NaN never exceeds)."""
+    return ((values[..., None] >= thresholds) if inclusive else (values[..., None] > thresholds)).astype(float)
+
+
 def predicted_exceedance(high_p: np.ndarray, low_p: np.ndarray, low: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
     """The control variate of 1[h > t]: P(h > t | l) under h = a + b l + N(0, s²), a, b and s fitted by
     least squares on the pairs finite at both fidelities, evaluated at every low-fidelity value.
@@ -164,7 +169,7 @@ def regression_point_estimate(high_p: np.ndarray, low_p: np.ndarray, low_u: np.n
         hi, lo = high_p[..., k], low_p[..., k]
         every = lo if low_u is None else np.concatenate([lo, low_u[..., k]], axis=-1)
         g_all = predicted_exceedance(hi, lo, every, thresholds)  # [..., N, T]
-        hit = (hi[..., None] >= thresholds) if inclusive[k] else (hi[..., None] > thresholds)  # [..., n, T]
+        hit = _exceeds(hi, thresholds, inclusive[k])  # [..., n, T]
         total = total + signs[k] * (hit.mean(-2) - g_all[..., : hi.shape[-1], :].mean(-2) + g_all.mean(-2))
     return total
 
@@ -219,8 +224,7 @@ def regression_control_variate(high: np.ndarray, low: np.ndarray, thresholds: np
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)
 
     def indicators(values: np.ndarray) -> list[np.ndarray]:
-        return [((values[:, j, None] >= thresholds) if inclusive[j] else (values[:, j, None] > thresholds)).astype(float)
-                for j in range(k)]
+        return [_exceeds(values[:, j], thresholds, inclusive[j]) for j in range(k)]
 
     def combined_mean(columns: list[np.ndarray]) -> np.ndarray:  # summed as the estimate sums its terms
         return sum(signs[j] * columns[j].mean(0) for j in range(k))
@@ -270,6 +274,18 @@ def variance_factor(ratio: float, correlation: float) -> float:
     return 1.0 - (1.0 - 1.0 / ratio) * correlation ** 2
 
 
+def _z(confidence: float) -> float:
+    """The two-sided normal quantile of a ``confidence`` interval."""
+    return float(stats.norm.ppf(0.5 + confidence / 2.0))
+
+
+def predicted_half_width(std_high: float, correlation: float, n_high: int, n_low: int,
+                         confidence: float = 0.95) -> float:
+    """Interval half-width of the control-variate estimate of a mean from n_high pairs among n_low cheap
+    runs (normal approximation, optimal weight): z std sqrt(variance_factor(N / n, rho) / n)."""
+    return _z(confidence) * std_high * math.sqrt(variance_factor(n_low / n_high, correlation) / n_high)
+
+
 def allocate(cost_high: float, cost_low: float, correlation: float, std_high: float, half_width: float,
              confidence: float = 0.95, cap_high: int | None = None) -> Allocation:
     """Realizations at each fidelity for a target interval half-width (normal approximation),
@@ -277,8 +293,7 @@ def allocate(cost_high: float, cost_low: float, correlation: float, std_high: fl
     ``cap_high`` bounds the paired runs (the half-width is then not reached)."""
     if half_width <= 0:
         raise MultiFidelityError(f"the target half-width must be positive, got {half_width}")
-    z = stats.norm.ppf(0.5 + confidence / 2.0)
-    target = (half_width / z) ** 2
+    target = (half_width / _z(confidence)) ** 2
     ratio = optimal_ratio(cost_high, cost_low, correlation)
     n_high = max(2, math.ceil(std_high ** 2 * variance_factor(ratio, correlation) / target))
     if cap_high is not None:
@@ -297,7 +312,7 @@ def pairs_for_half_width(std_high: float, correlation: float, n_low: int, half_w
     optimal weight). Infinite where the N cheap runs cannot: ρ² std² / N alone exceeds the target."""
     if half_width <= 0:
         raise MultiFidelityError(f"the target half-width must be positive, got {half_width}")
-    target = (half_width / stats.norm.ppf(0.5 + confidence / 2.0)) ** 2
+    target = (half_width / _z(confidence)) ** 2
     rho2 = min(float(correlation) ** 2, 1.0)
     floor = std_high ** 2 * rho2 / n_low
     return math.inf if floor >= target else std_high ** 2 * (1.0 - rho2) / (target - floor)

@@ -22,11 +22,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from scipy import stats  # noqa: E402
 
 from rgns.hazard import ZONE_LEVELS, zone_levels, zones  # noqa: E402
 from rgns.multifidelity import (ControlVariateEstimate, MultiFidelityError, allocate, control_variate,  # noqa: E402
-                                optimal_ratio, pairs_for_half_width, regression_control_variate, speedup)
+                                optimal_ratio, pairs_for_half_width, predicted_half_width,
+                                regression_control_variate, speedup)
 from rgns.realizations import FINISHED  # noqa: E402
 
 METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
@@ -162,8 +162,7 @@ def plan_pairs(low: pd.DataFrame, pilot: pd.DataFrame, settings: dict[str, Any])
     wanted = min(max(len(pilot), math.ceil(needed) if math.isfinite(needed) else cap), cap)
     chunks = -(-wanted // chunk)
     n_paired = min(chunks * chunk, realizations)
-    z = stats.norm.ppf(0.5 + confidence / 2.0)
-    half_width = z * std * math.sqrt((1 - rho ** 2) / n_paired + rho ** 2 / len(low_rows))
+    half_width = predicted_half_width(std, rho, n_paired, len(low_rows), confidence)
     return {"target_half_width_m": target, "pilot": len(pilot), "n_low": len(low_rows), "std_m": std,
             "correlation": rho, "needed": needed if math.isfinite(needed) else None, "cap": cap,
             "chunks": chunks, "n_paired": n_paired, "predicted_half_width_m": half_width,

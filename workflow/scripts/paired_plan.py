@@ -3,14 +3,13 @@
 import json
 
 from rgns.logsetup import log_to_file
-from rgns.montecarlo import collect_chunks
+from rgns.montecarlo import collect_whole_chunks
 from rgns.multifidelity_outputs import plan_pairs
 from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])
 settings = snakemake.params.settings
-chunk = settings["chunk_size"]
-pilot = collect_chunks(snakemake.input.pilot, min(len(snakemake.input.pilot) * chunk, settings["realizations"]), chunk)
+pilot = collect_whole_chunks(snakemake.input.pilot, settings["chunk_size"], settings["realizations"])
 plan = plan_pairs(read_csv(snakemake.input.realizations), pilot, settings)
 with open(snakemake.output[0], "w") as out:
     json.dump(plan, out, indent=1)
