@@ -27,6 +27,7 @@ include: "rules/fields.smk"
 include: "rules/mpm.smk"
 include: "rules/dataset.smk"
 include: "rules/gns.smk"
+include: "rules/endstate.smk"
 include: "rules/validation.smk"
 include: "rules/montecarlo.smk"
 include: "rules/site.smk"
@@ -56,6 +57,14 @@ rule pretrain:
     input:
         "results/model/gns.pt",
         "results/model/card.md",
+
+
+rule pretrain_endstate:
+    """The end-state surrogate's training runs, its training and its card with the validation table
+    (config/pretrain_endstate.yaml makes the shipped one)."""
+    input:
+        "results/model/endstate.pt",
+        "results/model/endstate_card.md",
 
 
 rule hazard_map:

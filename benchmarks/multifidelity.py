@@ -1,13 +1,15 @@
 """Multi-fidelity against plain high-fidelity Monte Carlo at equal wall time, on the same realizations.
 
     python benchmarks/multifidelity.py --realizations 96 --workers 2   # runs, then analyses
-    python benchmarks/multifidelity.py --analyse       # again from multifidelity.json (+ mc_routes.json's GNS)
+    python benchmarks/multifidelity.py --analyse       # again from multifidelity.json (+ mc_routes.json's GNS,
+                                                       #   + the shipped end-state surrogate, run here)
 
 A pool of default-config case-1 realizations (drawn as ``rgns.montecarlo`` draws them, the field
 on the 1 m grid so every mesh samples the same field) is run by the embedded MPM at 0.5 m cells
 (the high fidelity: 1.2 % of range from the 0.5 m / cfl 0.1 reference in ``suite.md``) and by the
-cheap routes: the MPM at 1 m (the default) and at 2 m, and, when ``benchmarks/results/mc_routes.json``
-holds them for the same realizations, the shipped GNS. Wall time per realization is measured per
+cheap routes: the MPM at 1 m (the default) and at 2 m, the shipped end-state surrogate
+(``rgns/models/endstate.pt``, run here on the same realizations: it costs milliseconds) and, when
+``benchmarks/results/mc_routes.json`` holds them for the same realizations, the shipped GNS. Wall time per realization is measured per
 route (one thread per worker; each batch of montecarlo.batch_size runs every MPM route in turn, so
 load weighs on each alike).
 
@@ -37,7 +39,8 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
-from rgns.montecarlo import simulate_mpm  # noqa: E402
+from rgns.endstate.model import load_model  # noqa: E402
+from rgns.montecarlo import simulate_endstate, simulate_mpm  # noqa: E402
 from rgns.multifidelity import (optimal_ratio, point_estimate, predicted_exceedance,  # noqa: E402
                                 regression_point_estimate, speedup)
 from rgns.realizations import FINISHED, draw_realization  # noqa: E402
@@ -95,6 +98,24 @@ def add_gns_route(routes: dict, n: int) -> None:
         record = json.loads(path.read_text())["routes"]["gns"]
         if len(record["rows"]) >= n:
             routes["GNS (shipped)"] = {"rows": record["rows"][:n], "s_per_realization": record["s_per_realization"]}
+
+
+def add_endstate_route(routes: dict, n: int, model_path: Path = REPO / "rgns" / "models" / "endstate.pt") -> None:
+    """The end-state surrogate's rows of realizations 0..n-1 and its seconds per realization (one
+    thread, the batches of montecarlo.batch_size the pipeline uses; drawing not counted, as for MPM)."""
+    torch.set_num_threads(1)
+    config = load_config(REPO / "config" / "config.yaml")
+    model = load_model(model_path)
+    size = config["montecarlo"]["batch_size"]
+    rows, seconds = [], 0.0
+    for first in range(0, n, size):
+        batch = [draw_realization(case_inputs(config, "case1", 1.0), i) for i in range(first, min(first + size, n))]
+        start = time.perf_counter()
+        simulated = simulate_endstate(model, batch)
+        seconds += time.perf_counter() - start
+        rows += [{k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")}
+                 for row in measured(batch, simulated, config)]
+    routes["end-state surrogate (shipped)"] = {"rows": rows, "s_per_realization": seconds / n}
 
 
 QUANTITY_NAMES = ("mean R", "P(R > r50)", "P(R > r10)", "P(R > r50), regression", "P(R > r10), regression", "mean V",
@@ -226,6 +247,7 @@ def main() -> None:
                   "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, "
                              f"{args.workers} workers of 1 thread, CPU"}
     add_gns_route(record["routes"], record["n"])
+    add_endstate_route(record["routes"], record["n"])
     record["analysis"] = analyse(record)
     path.write_text(json.dumps(record, indent=1, default=float) + "\n")
     (OUT / "multifidelity.md").write_text(markdown(record))

@@ -3,6 +3,7 @@
     python benchmarks/suite.py                       # the shipped GNS against the MPM routes
     python benchmarks/suite.py --realizations 4 --train-steps 500    # + GNS variants trained here
     python benchmarks/suite.py --cbgeo /path/to/mpm  # add the real CB-Geo to an existing suite.json
+    python benchmarks/suite.py --endstate            # add the shipped end-state surrogate to it
 
 Every route simulates the same default-config case-1 Monte Carlo realizations (drawn exactly as
 ``rgns.montecarlo`` draws them; the random field on a fixed 1 m grid so a finer mesh samples the
@@ -18,6 +19,9 @@ thread; a GNS rollout includes its MPM warm-up, ``montecarlo.rollout.warmup_s``)
   architecture variants trained here on the pipeline's dataset (``results/dataset/train.h5`` of
   a ``gns.model: train`` run) for that many steps (checkpoints in benchmarks/results/models/,
   resumed when run again).
+* End-state surrogate: the shipped model (rgns/models/endstate.pt), one network evaluation per
+  realization in batches of montecarlo.batch_size, no MPM; ``--endstate`` adds it to an existing
+  ``suite.json`` (the same realizations).
 * CB-Geo (``--cbgeo``): the real ``mpm`` binary on the same realizations at the default 1 m cells,
   one thread, one realization after another, added to an existing ``suite.json`` (it is slow and
   cannot be installed from a package registry).
@@ -53,8 +57,9 @@ from rgns.shipped import MODELS  # noqa: E402
 from rgns.gns.rollout import RolloutSettings  # noqa: E402
 from rgns.gns.train import load_simulator, settings_from_config, train  # noqa: E402
 from rgns.metrics import MetricSettings  # noqa: E402
-from rgns.montecarlo import (Simulated, factor_of_safety, measure, rollout_settings, simulate_gns,  # noqa: E402
-                             simulate_mpm)
+from rgns.endstate.model import load_model  # noqa: E402
+from rgns.montecarlo import (Simulated, factor_of_safety, measure, rollout_settings, simulate_endstate,  # noqa: E402
+                             simulate_gns, simulate_mpm)
 from rgns.realizations import CaseInputs, draw_realization  # noqa: E402
 from rgns.screening import ScreenSettings  # noqa: E402
 
@@ -111,6 +116,16 @@ def run_gns_route(config: dict, model: Path, n: int, frames: int, rollout: Rollo
     batch = [draw_realization(case_inputs(config, "case1", config["mesh"]["cell_size_m"]), i) for i in range(n)]
     start = time.perf_counter()
     simulated = simulate_gns(simulator, batch, config["mpm"], frames, "cpu", rollout)
+    return measured(batch, simulated, config), (time.perf_counter() - start) / n
+
+
+def run_endstate_route(config: dict, model: Path, n: int) -> tuple[list[dict], float]:
+    """The end-state surrogate on the same realizations, in the Monte Carlo's batches."""
+    surrogate = load_model(model)
+    batch = [draw_realization(case_inputs(config, "case1", config["mesh"]["cell_size_m"]), i) for i in range(n)]
+    size = config["montecarlo"]["batch_size"]
+    start = time.perf_counter()
+    simulated = [s for k in range(0, n, size) for s in simulate_endstate(surrogate, batch[k:k + size])]
     return measured(batch, simulated, config), (time.perf_counter() - start) / n
 
 
@@ -175,7 +190,8 @@ def pareto_plot(routes: dict, path: Path) -> None:
     names = [name for name in routes if name != "reference"]
     points = np.array([[routes[name]["s_per_realization"], routes[name]["error"]["mean"]] for name in names])
     for number, ((x, y), name) in enumerate(zip(points, names), start=1):
-        ax.scatter(x, y, color="C1" if name.startswith("GNS") else "C0", zorder=3, label=f"{number}: {name}")
+        color = "C1" if name.startswith("GNS") else "C2" if name.startswith("end-state") else "C0"
+        ax.scatter(x, y, color=color, zorder=3, label=f"{number}: {name}")
         ax.annotate(str(number), (x, y), fontsize=8, xytext=(4, 3), textcoords="offset points")
     front, best = [], np.inf
     for k in np.argsort(points[:, 0]):
@@ -187,7 +203,7 @@ def pareto_plot(routes: dict, path: Path) -> None:
     ax.set_xscale("log")
     ax.set_xlabel("wall time per realization (s, one CPU thread)")
     ax.set_ylabel("error in R, V, I (mean abs., % of range)")
-    ax.set_title("Time against error, against the embedded MPM at 0.5 m cells, cfl 0.1 (blue: MPM, orange: GNS)",
+    ax.set_title("Time against error, against the embedded MPM at 0.5 m cells, cfl 0.1 (blue: MPM, orange: GNS, green: end-state)",
                  fontsize=10)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
@@ -226,9 +242,20 @@ def main() -> None:
     parser.add_argument("--models", type=Path, default=OUT / "models", help="where trained variants are kept")
     parser.add_argument("--replot", action="store_true", help="redraw pareto.png and suite.md from suite.json")
     parser.add_argument("--cbgeo", metavar="MPM", help="add a CB-Geo route (this mpm binary) to suite.json")
+    parser.add_argument("--endstate", nargs="?", const=MODELS / "endstate.pt", type=Path, metavar="MODEL",
+                        help="add the end-state surrogate route (default: the shipped one) to suite.json")
     args = parser.parse_args()
-    if args.replot or args.cbgeo:
+    if args.replot or args.cbgeo or args.endstate:
         record = json.loads((OUT / "suite.json").read_text())
+        if args.endstate:
+            torch.set_num_threads(1)
+            config = load_config(REPO / "config" / "config.yaml")
+            rows, seconds = run_endstate_route(config, args.endstate, record["n"])
+            name = "end-state surrogate (shipped)"
+            record["routes"][name] = {"s_per_realization": seconds, "rows": rows,
+                                      "error": errors(rows, record["routes"]["reference"]["rows"])}
+            print(f"{name}: {seconds:.4f} s per realization, error {record['routes'][name]['error']}", flush=True)
+            (OUT / "suite.json").write_text(json.dumps(record, indent=1, default=float) + "\n")
         if args.cbgeo:
             torch.set_num_threads(1)
             config = load_config(REPO / "config" / "config.yaml")
@@ -275,6 +302,7 @@ def main() -> None:
     for name, model in variants.items() if args.train_steps else ():
         path = train_variant(config, args.models, name.replace(" ", "_").replace(",", ""), args.train_steps, **model)
         record(f"{name}, both", *run_gns_route(config, path, n, frames, mc))
+    record("end-state surrogate (shipped)", *run_endstate_route(config, MODELS / "endstate.pt", n))
 
     reference = routes["reference"]["rows"]
     for route in routes.values():

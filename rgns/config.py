@@ -143,7 +143,8 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
                     f"config key 'sets.{set_name}[{g}].family' = {group['family']!r}: no such "
                     f"family under geometry.families (have: {', '.join(sorted(families))})"
                 )
-    return errors + _montecarlo_errors(config) + _hazard_errors(config) + _shipped_errors(config)
+    return errors + _montecarlo_errors(config) + _hazard_errors(config) + _shipped_errors(config) \
+        + _shipped_endstate_errors(config)
 
 
 def _shipped_errors(config: dict[str, Any]) -> list[str]:
@@ -156,6 +157,20 @@ def _shipped_errors(config: dict[str, Any]) -> list[str]:
         check_serves(read_card(), config)
     except ShippedModelError as error:
         return [f"config key 'gns.model' = 'shipped': {error}"]
+    return []
+
+
+def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
+    """With the shipped end-state surrogate as the Monte Carlo's simulator, the keys it is tied to must be its own."""
+    from rgns.endstate.card import check_serves  # local: only needed here
+    from rgns.shipped import MODELS, ShippedModelError, read_card
+
+    if config["montecarlo"]["simulator"] != "endstate" or config["endstate"]["model"] != "shipped":
+        return []
+    try:
+        check_serves(read_card(MODELS, "endstate_card.json"), config)
+    except ShippedModelError as error:
+        return [f"config key 'endstate.model' = 'shipped': {error}"]
     return []
 
 

@@ -1,5 +1,6 @@
-"""The validation gate: may a Monte Carlo case be drawn from the GNS, judged by its agreement with
-fresh MPM runs of that case (config ``validation.acceptance``)?
+"""The validation gate: may a Monte Carlo case be drawn from the learned simulator (the GNS or the
+end-state surrogate), judged by its agreement with fresh MPM runs of that case (config
+``validation.acceptance``)?
 
 Per case and metric: R² at least ``r2_min`` where MPM has variance (R² is undefined otherwise), and
 the mean signed error within ``relative_bias_max`` of the MPM mean; where the MPM mean is 0 (every
@@ -19,6 +20,7 @@ from typing import Any
 import pandas as pd
 
 STOP = "stop"
+SURROGATE_NAMES = {"gns": "GNS", "endstate": "end-state surrogate"}
 
 
 class GateError(RuntimeError):
@@ -34,11 +36,14 @@ class Verdict:
     failures: list[str] = field(default_factory=list)
     simulator: str = "gns"  # what the Monte Carlo of this case runs: gns, or mpm after a fallback
 
+    surrogate: str = "gns"  # the learned simulator judged: gns, or endstate (the end-state surrogate)
+
     def sentence(self) -> str:
+        name = SURROGATE_NAMES.get(self.surrogate, self.surrogate)
         if self.passed:
-            return f"{self.case}: the GNS passed the validation gate; the Monte Carlo uses it"
+            return f"{self.case}: the {name} passed the validation gate; the Monte Carlo uses it"
         then = "the Monte Carlo runs the MPM instead" if self.simulator == "mpm" else "the Monte Carlo stops"
-        return f"{self.case}: the GNS failed the validation gate ({'; '.join(self.failures)}): {then}"
+        return f"{self.case}: the {name} failed the validation gate ({'; '.join(self.failures)}): {then}"
 
 
 def _bias_failure(row: pd.Series, limit: float, cell_size_m: float) -> str | None:
@@ -55,8 +60,9 @@ def _bias_failure(row: pd.Series, limit: float, cell_size_m: float) -> str | Non
 
 
 def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict[str, Any],
-          cell_size_m: float) -> dict[str, Verdict]:
-    """The verdict of every case of a validation table (rows of case × metric) and its summaries."""
+          cell_size_m: float, surrogate: str = "gns") -> dict[str, Verdict]:
+    """The verdict of every case of a validation table (rows of case × metric) and its summaries, for
+    the learned simulator ``surrogate`` (gns or endstate) the table's ``gns`` columns hold."""
     diverged = {item["case"]: item["diverged"] / max(item["realizations"], 1) for item in summaries}
     verdicts = {}
     for case, rows in table.groupby("case", sort=False):
@@ -71,8 +77,8 @@ def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict
             if problem:
                 failures.append(problem)
         passed = not failures
-        simulator = "gns" if passed or acceptance["on_failure"] == STOP else "mpm"
-        verdicts[str(case)] = Verdict(str(case), passed, failures, simulator)
+        simulator = surrogate if passed or acceptance["on_failure"] == STOP else "mpm"
+        verdicts[str(case)] = Verdict(str(case), passed, failures, simulator, surrogate)
     return verdicts
 
 

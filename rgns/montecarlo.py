@@ -1,4 +1,4 @@
-"""Monte Carlo realizations of a test case: simulate (GNS or embedded MPM) and measure the
+"""Monte Carlo realizations of a test case: simulate (GNS, end-state surrogate or embedded MPM) and measure the
 realizations :mod:`rgns.realizations` draws. Realizations are simulated in
 batches of ``batch_size`` aligned on the index (batch k holds k·B … k·B + B − 1), so a table does
 not depend on how the realizations are split into chunks (chunk sizes are multiples of B).
@@ -14,6 +14,9 @@ whose limit-equilibrium factor of safety is clearly above 1 (:mod:`rgns.screenin
 simulated and enters the table as a no-failure run with status "screened"; GNS rollouts skip
 particles at rest and stop once a realization has come to rest (``montecarlo.rollout``); and
 only the frames a measurement reads are kept (``keep_frames: ends``).
+
+The end-state surrogate (:mod:`rgns.endstate`) needs no MPM at all: one network evaluation maps a
+realization at rest to its material points at rest after the run (frames: start, end, end).
 """
 from __future__ import annotations
 
@@ -26,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from rgns.cbgeo.writer import case_from_scene
+from rgns.endstate.model import EndStateModel
 from rgns.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
@@ -34,7 +38,8 @@ from rgns.realizations import FINISHED, MEAN_FIELD, CaseInputs, Realization, dra
 from rgns.screening import ScreenSettings, minimum_factor_of_safety
 from rgns.tables import TableError, read_csv
 
-SIMULATORS = ("gns", "mpm")
+SIMULATORS = ("gns", "endstate", "mpm")
+SURROGATES = ("gns", "endstate")  # the learned simulators, validated against MPM before use
 log = logging.getLogger(__name__)
 
 
@@ -70,6 +75,13 @@ def simulate_gns(simulator: LearnedSimulator, batch: list[Realization], mpm: dic
                            rollout, device)
     return [Simulated(result.positions, w.status if w.status != "ok" else result.status)
             for w, result in zip(warmup, results)]
+
+
+def simulate_endstate(model: EndStateModel, batch: list[Realization], device: str = "cpu") -> list[Simulated]:
+    """The end-state surrogate's final positions of a batch (frames: start, end, end: at rest)."""
+    finals = model.predict([r.scene.positions for r in batch], [r.friction_deg for r in batch], device)
+    return [Simulated(np.stack([r.scene.positions.astype(np.float32), final, final]), "ok")
+            for r, final in zip(batch, finals)]
 
 
 def screened(realization: Realization) -> Simulated:
@@ -169,12 +181,12 @@ def rollout_settings(section: dict[str, Any], frame_interval_s: float, keep: str
 
 
 def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettings,
-                     simulator: LearnedSimulator | None = None) -> pd.DataFrame:
+                     simulator: LearnedSimulator | EndStateModel | None = None) -> pd.DataFrame:
     """Draw, simulate and measure realizations ``indices`` (MEAN_FIELD for the mean-field one)."""
     if settings.simulator not in SIMULATORS:
         raise MonteCarloError(f"montecarlo.simulator = {settings.simulator!r}: expected one of {SIMULATORS}")
-    if settings.simulator == "gns" and simulator is None:
-        raise MonteCarloError("montecarlo.simulator = 'gns' needs a trained model")
+    if settings.simulator in SURROGATES and simulator is None:
+        raise MonteCarloError(f"montecarlo.simulator = {settings.simulator!r} needs a trained model")
     rows = []
     started = time.perf_counter()
     batches = _aligned_batches(indices, settings.batch_size)
@@ -201,9 +213,12 @@ def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettin
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
-def _simulate(batch: list[Realization], settings: RunSettings, simulator: LearnedSimulator | None) -> list[Simulated]:
+def _simulate(batch: list[Realization], settings: RunSettings,
+              simulator: LearnedSimulator | EndStateModel | None) -> list[Simulated]:
     if not batch:
         return []
+    if settings.simulator == "endstate":
+        return simulate_endstate(simulator, batch, settings.device)
     if settings.simulator == "gns":
         return simulate_gns(simulator, batch, settings.mpm, settings.frames, settings.device, settings.rollout)
     return simulate_mpm(batch, settings.mpm, settings.frames, settings.keep_frames)

@@ -1,4 +1,7 @@
-"""The same realizations through MPM and the GNS, paired: what the validation compares.
+"""The same realizations through MPM and a learned simulator, paired: what the validation compares.
+
+The learned simulator's columns are named ``gns_*`` whichever it is (the GNS, or the end-state
+surrogate :func:`pair_end_states` pairs).
 
 The GNS takes over, as in the Monte Carlo, after the MPM's first ``rollout.warmup_frames`` frames
 (at least ``history + 1``: every GNS rollout starts from simulator frames), with the same
@@ -14,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from rgns.endstate.model import EndStateModel
 from rgns.geometry import Scene
 from rgns.gns.rollout import RolloutSettings, rollout_soil
 from rgns.gns.simulator import LearnedSimulator
@@ -21,6 +25,8 @@ from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_me
 from rgns.trajectories import Trajectory
 
 log = logging.getLogger(__name__)
+PAIR_COLUMNS = ["index", "gns_status"] + [f"{key}_{side}" for key in ("runout_m", "volume_m2", "influence_m")
+                                          for side in ("mpm", "gns")] + ["final_position_mse_m2"]
 
 
 @dataclass
@@ -67,7 +73,29 @@ def pair_case(simulator: LearnedSimulator, trajectories: list[Trajectory], scene
                                                     gravity_m_s2))
         log.info("%s: %d of %d realizations rolled out (%.0f s)", batch[0].set_name, len(rows), len(trajectories),
                  time.perf_counter() - started)
-    columns = ["index", "gns_status"] + [f"{key}_{side}" for key in ("runout_m", "volume_m2", "influence_m")
-                                         for side in ("mpm", "gns")] + ["final_position_mse_m2"]
-    return PairedCase(pd.DataFrame(rows)[columns], trajectories[0].time_s, np.array([t.index for t in trajectories]),
+    return PairedCase(pd.DataFrame(rows)[PAIR_COLUMNS], trajectories[0].time_s, np.array([t.index for t in trajectories]),
                       np.stack(mpm_energies), np.stack(gns_energies))
+
+
+def pair_end_states(model: EndStateModel, trajectories: list[Trajectory], scenes: dict[int, Scene],
+                    settings: MetricSettings, gravity_m_s2: float, device: str = "cpu") -> PairedCase:
+    """The end-state surrogate on every MPM trajectory of a case (from its first frame), paired. Its
+    energies are known at the start and the end only (NaN between: it has no path)."""
+    finals = model.predict([t.positions[0] for t in trajectories], [t.friction_deg for t in trajectories], device)
+    rows, mpm_energies, surrogate_energies = [], [], []
+    for trajectory, final in zip(trajectories, finals):
+        crest = crest_x(scenes[trajectory.index].vertices)
+        truth = trajectory.positions
+        predicted = np.stack([truth[0], final, final])
+        row = {"index": trajectory.index, "gns_status": "ok"}
+        row |= _metric_columns(trajectory, truth, crest, settings, "mpm")
+        row |= _metric_columns(trajectory, predicted, crest, settings, "gns")
+        row["final_position_mse_m2"] = float(np.sum((final - truth[-1]) ** 2, axis=1).mean())
+        rows.append(row)
+        mpm_energies.append(normalized_energies(truth, trajectory.mass_kg, trajectory.frame_interval_s, gravity_m_s2))
+        ends = normalized_energies(predicted, trajectory.mass_kg, trajectory.frame_interval_s, gravity_m_s2)
+        energies = np.full((trajectory.n_frames, 3), np.nan)
+        energies[0], energies[-1] = ends[0], ends[-1]
+        surrogate_energies.append(energies)
+    return PairedCase(pd.DataFrame(rows)[PAIR_COLUMNS], trajectories[0].time_s,
+                      np.array([t.index for t in trajectories]), np.stack(mpm_energies), np.stack(surrogate_energies))

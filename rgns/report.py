@@ -16,6 +16,8 @@ from typing import Any
 import jinja2
 import pandas as pd
 
+from rgns.gate import SURROGATE_NAMES
+
 CAPTIONS = Path(__file__).resolve().parent.parent / "docs" / "captions"
 STYLE = """
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
@@ -157,40 +159,56 @@ def fidelity_summary(report: Report, hazard: dict[str, dict[str, Path]]) -> None
 
 
 def gate_section(report: Report, gate: dict[str, dict[str, Any]], cases: list[str],
-                 validation_table: pd.DataFrame) -> None:
+                 validation_table: pd.DataFrame, surrogate: str = "gns") -> None:
     """The validation gate's verdict for every Monte Carlo case and the table it was based on, first."""
+    name = SURROGATE_NAMES[surrogate]
     lines = []
     for case in cases:
         verdict = gate.get(case)
         if verdict is None:
             lines.append(paragraph(f"{case}: the Monte Carlo ran MPM as configured; no surrogate was used."))
         elif verdict["passed"]:
-            lines.append(paragraph(f"{case}: the GNS passed the validation gate against fresh MPM runs of this "
+            lines.append(paragraph(f"{case}: the {name} passed the validation gate against fresh MPM runs of this "
                                    "case; the Monte Carlo below is drawn from it."))
         else:
             then = ("the Monte Carlo below was run by MPM instead (on_failure: fallback), so it does not rest "
-                    "on the GNS" if verdict["simulator"] == "mpm" else "the Monte Carlo was stopped")
-            lines.append(paragraph(f"{case}: the GNS FAILED the validation gate ({'; '.join(verdict['failures'])}); "
+                    f"on the {name}" if verdict["simulator"] == "mpm" else "the Monte Carlo was stopped")
+            lines.append(paragraph(f"{case}: the {name} FAILED the validation gate ({'; '.join(verdict['failures'])}); "
                                    f"{then}.", note=True))
     report.add("Validation gate", *lines, table(validation_table))
 
 
-def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], learning_curve: Path,
-                 evaluation: dict[str, Any], validation_table: pd.DataFrame, validation_summary: list[dict],
-                 validation_figures: dict[str, Path], hazard: dict[str, dict[str, Path]],
-                 gate: dict[str, dict[str, Any]] | None = None) -> str:
-    """The whole page: the validation gate's verdict first, then configuration, model, validation, hazard."""
-    report = Report(title)
-    gate_section(report, gate or {}, list(hazard), validation_table)
-    fidelity_summary(report, hazard)
-    report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>")
-    report.add("Scenes", *(figure(path, caption("scenes", set=name)) for name, path in scenes.items()))
+def model_section(report: Report, surrogate: str, evaluation: dict[str, Any], learning_curve: Path) -> None:
+    """What the learned simulator is and how it trained."""
+    if surrogate == "endstate":
+        origin = ("the model shipped with rgns (card: rgns/models/endstate_card.md), " if evaluation.get("shipped")
+                  else "")
+        report.add("End-state surrogate",
+                   paragraph(f"{origin}{evaluation['steps']} training steps; held-out loss "
+                             f"{evaluation['valid_loss']:.3g} against the mean predictor's "
+                             f"{evaluation['valid_mean_predictor_loss']:.3g} (mean squared scaled final displacement)."),
+                   figure(learning_curve, caption("endstate_curve")))
+        return
     origin = ("the model shipped with rgns (card: rgns/models/card.md), " if evaluation.get("shipped") else "")
     report.add("Graph network simulator",
                paragraph(f"{origin}{evaluation.get('steps', '?')} training steps; validation one-step position error "
                          f"{evaluation['one_step_error_m']:.3g} m, full-rollout mean position error "
                          f"{evaluation['rollout_mean_error_m']:.3g} m over {evaluation['frames']} frames."),
                figure(learning_curve, caption("learning_curve")))
+
+
+def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], learning_curve: Path,
+                 evaluation: dict[str, Any], validation_table: pd.DataFrame, validation_summary: list[dict],
+                 validation_figures: dict[str, Path], hazard: dict[str, dict[str, Path]],
+                 gate: dict[str, dict[str, Any]] | None = None, surrogate: str = "gns") -> str:
+    """The whole page: the validation gate's verdict first, then configuration, model, validation, hazard.
+    ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and evaluation these are."""
+    report = Report(title)
+    gate_section(report, gate or {}, list(hazard), validation_table, surrogate)
+    fidelity_summary(report, hazard)
+    report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>")
+    report.add("Scenes", *(figure(path, caption("scenes", set=name)) for name, path in scenes.items()))
+    model_section(report, surrogate, evaluation, learning_curve)
     summary = pd.DataFrame(validation_summary)
     report.add("Validation against MPM", table(validation_table), table(summary),
                figure(validation_figures["histograms"], caption("histograms")),

@@ -26,8 +26,8 @@ class ShippedModelError(ValueError):
     """The shipped model does not serve this config."""
 
 
-def read_card(directory: str | Path = MODELS) -> dict[str, Any]:
-    path = Path(directory) / "card.json"
+def read_card(directory: str | Path = MODELS, name: str = "card.json") -> dict[str, Any]:
+    path = Path(directory) / name
     try:
         return json.loads(path.read_text())
     except (OSError, json.JSONDecodeError) as error:

@@ -113,8 +113,14 @@ TEST_CASES = [name for name in SETS if name not in ("train", "valid")]
 MC_CASES = list(config["montecarlo"]["cases"])
 # the multi-fidelity correction's outputs per case, when montecarlo.fidelity.paired > 0
 MULTIFIDELITY_FILES = ["multifidelity.json", "multifidelity.png"] if config["montecarlo"]["fidelity"]["paired"] else []
-# the sets a run simulates: with the shipped model no training set is run
-RUN_SETS = TEST_CASES if config["gns"]["model"] == "shipped" else SETS
+# the learned simulator the validation judges: the Monte Carlo's, or the GNS when the Monte Carlo runs MPM
+SURROGATE = config["montecarlo"]["simulator"] if config["montecarlo"]["simulator"] != "mpm" else "gns"
+SURROGATE_MODEL = f"results/model/{SURROGATE}.pt"
+# what the report shows of it: its learning curve and its training summary
+SURROGATE_CURVE = "results/model/endstate_curve.png" if SURROGATE == "endstate" else "results/model/learning_curve.png"
+SURROGATE_EVALUATION = "results/model/endstate_evaluation.json" if SURROGATE == "endstate" else "results/model/evaluation.json"
+# the sets a run simulates: with a shipped model, or the end-state surrogate, no training set is run
+RUN_SETS = TEST_CASES if SURROGATE == "endstate" or config["gns"]["model"] == "shipped" else SETS
 
 
 wildcard_constraints:
@@ -221,14 +227,14 @@ def multifidelity_params(wildcards):
 
 
 def mc_model(wildcards):
-    """The trained GNS, when it is the Monte Carlo simulator."""
-    return ["results/model/gns.pt"] if config["montecarlo"]["simulator"] == "gns" else []
+    """The trained learned simulator, when one is the Monte Carlo simulator."""
+    return [SURROGATE_MODEL] if config["montecarlo"]["simulator"] != "mpm" else []
 
 
 def mc_gate(wildcards):
-    """The validation gate's verdicts, when the GNS is the Monte Carlo simulator: a case it fails
-    runs MPM (or stops), by validation.acceptance.on_failure."""
-    return ["results/report/validation/gate.json"] if config["montecarlo"]["simulator"] == "gns" else []
+    """The validation gate's verdicts, when a learned simulator is the Monte Carlo's: a case it
+    fails runs MPM (or stops), by validation.acceptance.on_failure."""
+    return ["results/report/validation/gate.json"] if config["montecarlo"]["simulator"] != "mpm" else []
 
 
 def mc_chunks(wildcards):
@@ -258,3 +264,20 @@ def exceedance_params(wildcards):
     """Confidence, exceedance probabilities and the convergence criterion."""
     return {key: config["hazard"][key] for key in ("confidence", "exceedance_probabilities",
                                                     "convergence_tolerance", "convergence_window")}
+
+
+def endstate_chunk_ids():
+    """Chunk ids of the end-state training realizations of each test case (the held-out ones last)."""
+    section = config["endstate"]
+    return [f"{k:03d}" for k in range(-(-(section["realizations"] + section["held_out"]) // section["chunk_size"]))]
+
+
+def endstate_data_params(wildcards):
+    """A test case's inputs drawn from endstate.data_seed, and the MPM run of one chunk of them."""
+    section = config["endstate"]
+    first = int(wildcards.chunk) * section["chunk_size"]
+    last = min(first + section["chunk_size"], section["realizations"] + section["held_out"])
+    duration_s = config["mpm"]["duration_s"]
+    return {"inputs": asdict(CaseInputs.from_config(config | {"seed": section["data_seed"]}, wildcards.case)),
+            "indices": list(range(first, last)), "mpm": config["mpm"],
+            "frames": int(round(duration_s / config["mpm"]["frame_interval_s"])) + 1}

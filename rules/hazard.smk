@@ -42,8 +42,8 @@ rule report:
     """One self-contained HTML page with every figure, table and caption."""
     input:
         scenes=expand("results/plots/{set}/scenes.png", set=RUN_SETS),
-        curve="results/model/learning_curve.png",
-        evaluation="results/model/evaluation.json",
+        curve=SURROGATE_CURVE,
+        evaluation=SURROGATE_EVALUATION,
         validation_table="results/report/validation/table.csv",
         validation_summary="results/report/validation/summary.json",
         gate=mc_gate,
@@ -58,6 +58,7 @@ rule report:
     params:
         cases=MC_CASES,
         sets=RUN_SETS,
+        surrogate=SURROGATE,
         config_summary=lambda wildcards: {key: config[key] for key in ("seed", "domain", "mesh", "montecarlo", "hazard", "metrics")},
     log:
         "logs/report/report.log",

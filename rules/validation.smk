@@ -1,9 +1,10 @@
 rule validation_rollout:
-    """Roll the GNS out on every MPM realization of a test case; pair the metrics and energies."""
+    """Run the learned simulator (the GNS, or the end-state surrogate when it is the Monte Carlo's) on
+    every MPM realization of a test case; pair the metrics and energies."""
     input:
         packed="results/dataset/{case}.h5",
         scenes=case_scenes,
-        model="results/model/gns.pt",
+        model=SURROGATE_MODEL,
     output:
         pairs="results/validation/{case}/pairs.csv",
         energies="results/validation/{case}/energies.npz",
@@ -13,6 +14,7 @@ rule validation_rollout:
         batch_size=config["validation"]["batch_size"],
         device=config["montecarlo"]["device"],
         rollout=config["montecarlo"]["rollout"],
+        surrogate=SURROGATE,
     log:
         "logs/validation_rollout/{case}.log",
     threads: config["montecarlo"]["threads"]
@@ -26,8 +28,8 @@ rule validation_rollout:
 
 
 rule validate:
-    """GNS against MPM over all test cases: the Table-3 agreement table, histograms, parity, energies,
-    and the gate's verdict per case (validation.acceptance) that the Monte Carlo obeys."""
+    """The learned simulator against MPM over all test cases: the Table-3 agreement table, histograms,
+    parity, energies, and the gate's verdict per case (validation.acceptance) that the Monte Carlo obeys."""
     input:
         pairs=expand("results/validation/{case}/pairs.csv", case=TEST_CASES),
         energies=expand("results/validation/{case}/energies.npz", case=TEST_CASES),
@@ -43,6 +45,7 @@ rule validate:
         cases=TEST_CASES,
         validation=config["validation"],
         cell_size_m=config["mesh"]["cell_size_m"],
+        surrogate=SURROGATE,
     log:
         "logs/validate/validate.log",
     conda:

@@ -258,3 +258,34 @@ def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_
     assert "case1: the GNS failed the validation gate (runout R²" in result.stdout + result.stderr
     assert "case1: the GNS failed" in (copy_dir / "logs" / "mc_chunk" / "case1" / "chunk_000.log").read_text()
     assert (copy_dir / "results" / "validation" / "case1" / "pairs.csv").exists()
+
+
+def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built, tmp_path):
+    """montecarlo.simulator endstate with endstate.model train: its training runs (drawn from
+    endstate.data_seed), the training, the validation against the case's MPM runs, the gate and the
+    Monte Carlo by it, and the report's model section; the MPM runs already made are not redone."""
+    workdir = tmp_path / "endstate"
+    shutil.copytree(built[0], workdir, symlinks=True)
+    config = copy.deepcopy(built[1])
+    config["montecarlo"]["simulator"] = "endstate"
+    config["endstate"] = {"model": "train", "realizations": 4, "held_out": 2, "chunk_size": 2, "widths": [4, 8],
+                          "steps": 20, "checkpoint_every": 10, "threads": 1}
+    packed = workdir / "results" / "dataset" / "case1.h5"
+    before = packed.stat().st_mtime_ns
+    result = snakemake(workdir, "--cores", "2", "hazard_map", config=write_config(tmp_path / "endstate.yaml", config))
+    assert result.returncode == 0, result.stderr
+    results = workdir / "results"
+    assert sorted(p.name for p in (results / "endstate" / "data" / "case1").glob("*.h5")) == \
+        ["chunk_000.h5", "chunk_001.h5", "chunk_002.h5"]
+    history = read_csv(results / "model" / "endstate_history.csv")
+    assert list(history["step"]) == [10, 20]
+    gate = json.loads((results / "report" / "validation" / "gate.json").read_text())
+    assert gate["case1"]["surrogate"] == "endstate" and gate["case1"]["simulator"] == "endstate"
+    table = read_csv(results / "mc" / "case1" / "realizations.csv")
+    assert (table["simulator"] == "endstate").all() and (table["status"] == "ok").all()
+    pairs = read_csv(results / "validation" / "case1" / "pairs.csv")
+    for _, pair in pairs.iterrows():  # the Monte Carlo's realization i is the one validated
+        assert table[table["index"] == pair["index"]].iloc[0]["runout_m"] == pytest.approx(pair["runout_m_gns"])
+    page = (results / "report" / "report.html").read_text()
+    assert "End-state surrogate" in page and "the end-state surrogate passed the validation gate" in page
+    assert packed.stat().st_mtime_ns == before

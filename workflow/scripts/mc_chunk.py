@@ -1,16 +1,17 @@
 """Rules mc_chunk and mc_mean_field: simulate and measure some Monte Carlo realizations of a case.
 
-With the GNS as simulator, the validation gate decides: a case the GNS failed runs MPM
-(on_failure: fallback) or stops here with the failures named (on_failure: stop)."""
+With a learned simulator (the GNS or the end-state surrogate), the validation gate decides: a case
+it failed runs MPM (on_failure: fallback) or stops here with the failures named (on_failure: stop)."""
 import sys
 from dataclasses import replace
 
 import torch
 
 from rgns.gate import GateError, simulator_for
+from rgns.endstate.model import load_model
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
-from rgns.montecarlo import CaseInputs, RunSettings, run_realizations
+from rgns.montecarlo import SURROGATES, CaseInputs, RunSettings, run_realizations
 from rgns.realizations import FINISHED
 from rgns.tables import write_csv
 
@@ -25,10 +26,13 @@ if snakemake.input.gate:
         log.error("%s", error)
         print(f"rgns: {error}", file=sys.__stderr__, flush=True)
         sys.exit(1)
-    if settings.simulator != "gns":
-        log.warning("%s: the GNS failed the validation gate: these realizations are run by MPM", inputs.case)
-use_model = snakemake.input.model and settings.simulator == "gns"
-simulator = load_simulator(snakemake.input.model[0], settings.device).eval() if use_model else None
+    if settings.simulator not in SURROGATES:
+        log.warning("%s: the learned simulator failed the validation gate: these realizations are run by MPM",
+                    inputs.case)
+loaders = {"gns": lambda path: load_simulator(path, settings.device).eval(),
+           "endstate": lambda path: load_model(path, settings.device)}
+use_model = snakemake.input.model and settings.simulator in SURROGATES
+simulator = loaders[settings.simulator](snakemake.input.model[0]) if use_model else None
 table = run_realizations(inputs, list(snakemake.params.indices), settings, simulator)
 write_csv(table, snakemake.output[0])
 log.info("%s: %d realizations by %s, %d screened as stable, %d not ok", inputs.case, len(table), settings.simulator,

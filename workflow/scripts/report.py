@@ -21,6 +21,7 @@ page = build_report(
     validation_figures=validation_figures,
     hazard=hazard,
     gate=json.loads(Path(inputs.gate[0]).read_text()) if inputs.gate else None,
+    surrogate=params.surrogate,
 )
 Path(snakemake.output[0]).write_text(page)
 log.info("report of %d Monte Carlo case(s) written (%.1f MB)", len(hazard), len(page) / 1e6)

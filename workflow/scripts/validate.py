@@ -1,4 +1,5 @@
-"""Rule validate: agreement of the GNS with MPM over every test case (Table 3, Figs. 8-12)."""
+"""Rule validate: agreement of the learned simulator (GNS or end-state surrogate) with MPM over every
+test case (Table 3, Figs. 8-12)."""
 import json
 from pathlib import Path
 
@@ -23,7 +24,7 @@ table = validation_table(agreements)
 write_csv(table, snakemake.output.table)
 Path(snakemake.output.markdown).write_text(markdown_table(table))
 Path(snakemake.output.summary).write_text(json.dumps(summaries, indent=2) + "\n")
-verdicts = judge(table, summaries, settings["acceptance"], snakemake.params.cell_size_m)
+verdicts = judge(table, summaries, settings["acceptance"], snakemake.params.cell_size_m, snakemake.params.surrogate)
 write_verdicts(verdicts, snakemake.output.gate)
 for verdict in verdicts.values():
     (log.info if verdict.passed else log.warning)("%s", verdict.sentence())

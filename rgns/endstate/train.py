@@ -1,0 +1,147 @@
+"""Training the end-state surrogate: pairs (slope at rest, where each point came to rest) from MPM
+runs, masked mean squared error of the scaled displacement, AdamW with a one-cycle learning rate.
+
+Resumable: a checkpoint every ``checkpoint_every`` steps holds the weights, the optimiser, the
+schedule and the batch stream, so a killed run resumed continues exactly as an uninterrupted one.
+"""
+from __future__ import annotations
+
+import csv
+import logging
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+import torch
+
+from rgns.endstate.lattice import Lattice
+from rgns.endstate.model import EndStateModel, Normalization
+from rgns.endstate.data import EndState
+
+log = logging.getLogger(__name__)
+CHECKPOINT = "endstate-latest.pt"
+
+
+@dataclass(frozen=True)
+class EndStateTrainSettings:
+    """Config section ``endstate`` (what training needs of it)."""
+
+    widths: tuple[int, ...] = (16, 32, 64, 96)
+    steps: int = 3000
+    batch_size: int = 16
+    learning_rate: float = 2e-3
+    weight_decay: float = 1e-4
+    seed: int = 0
+    checkpoint_every: int = 250
+    threads: int = 1
+
+
+@dataclass
+class Examples:
+    """Input and target images [B, C, H, W] and the occupancy mask [B, 1, H, W]."""
+
+    inputs: torch.Tensor
+    targets: torch.Tensor
+
+    @property
+    def mask(self) -> torch.Tensor:
+        return self.inputs[:, :1]
+
+    def __len__(self) -> int:
+        return len(self.inputs)
+
+
+def normalization_of(states: list[EndState]) -> Normalization:
+    """Friction centre and scale over every point; displacement scale: the RMS final displacement."""
+    friction = np.concatenate([s.friction_deg for s in states])
+    moved = np.concatenate([np.linalg.norm(s.final - s.initial, axis=1) for s in states])
+    return Normalization(float(friction.mean()), float(max(friction.std(), 1.0)),
+                         float(max(np.sqrt(np.mean(moved ** 2)), 0.1)))
+
+
+def examples(model: EndStateModel, states: Iterable[EndState]) -> Examples:
+    """The images of each realization before and after."""
+    inputs, targets = [], []
+    for state in states:
+        inputs.append(model.inputs(state.initial, state.friction_deg))
+        targets.append(model.targets(state.initial, state.final))
+    return Examples(torch.from_numpy(np.stack(inputs)), torch.from_numpy(np.stack(targets)))
+
+
+def masked_loss(model: EndStateModel, batch: Examples) -> torch.Tensor:
+    """Mean squared error of the scaled displacement over the points (both components)."""
+    mask = batch.mask
+    return ((model(batch.inputs) - batch.targets) ** 2 * mask).sum() / (2 * mask.sum())
+
+
+@torch.no_grad()
+def held_out_loss(model: EndStateModel, batch: Examples) -> tuple[float, float]:
+    """The model's masked loss and the mean predictor's (every point gets the mean displacement)."""
+    mask = batch.mask
+    mean = (batch.targets * mask).sum(dim=(0, 2, 3), keepdim=True) / mask.sum()
+    baseline = ((mean - batch.targets) ** 2 * mask).sum() / (2 * mask.sum())
+    return float(masked_loss(model, batch)), float(baseline)
+
+
+def train(states: list[EndState], held_out: list[EndState], lattice: Lattice,
+          settings: EndStateTrainSettings, out_dir: str | Path) -> tuple[EndStateModel, list[dict]]:
+    """Train (or resume from ``out_dir``'s checkpoint) and return the model and its history."""
+    torch.set_num_threads(settings.threads)
+    torch.manual_seed(settings.seed)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    model = EndStateModel(lattice, normalization_of(states), settings.widths)
+    data, valid = examples(model, states), examples(model, held_out)
+    optimizer = torch.optim.AdamW(model.parameters(), settings.learning_rate, weight_decay=settings.weight_decay)
+    schedule = torch.optim.lr_scheduler.OneCycleLR(optimizer, settings.learning_rate, total_steps=settings.steps)
+    batches = torch.Generator().manual_seed(settings.seed)
+    start, history, elapsed = 0, [], 0.0
+    latest = out_dir / CHECKPOINT
+    if latest.exists():
+        state = torch.load(latest, weights_only=False)
+        if state["settings"] == asdict(settings) and state["normalization"] == asdict(model.normalization):
+            model.load_state_dict(state["weights"])
+            optimizer.load_state_dict(state["optimizer"])
+            schedule.load_state_dict(state["schedule"])
+            batches.set_state(state["batches"])
+            start, history, elapsed = state["step"], state["history"], state["elapsed_s"]
+            log.info("resumed from step %d of %d (%s)", start, settings.steps, latest)
+        else:
+            log.warning("%s was made with other settings or data: training from scratch", latest)
+    began = time.perf_counter() - elapsed
+    running: list[float] = []
+    model.train()
+    for step in range(start, settings.steps):
+        pick = torch.randint(0, len(data), (settings.batch_size,), generator=batches)
+        loss = masked_loss(model, Examples(data.inputs[pick], data.targets[pick]))
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        schedule.step()
+        running.append(loss.item())
+        done = step + 1
+        if done % settings.checkpoint_every == 0 or done == settings.steps:
+            model.eval()
+            valid_loss, mean_loss = held_out_loss(model, valid)
+            model.train()
+            row = {"step": done, "train_loss": float(np.mean(running)), "valid_loss": valid_loss,
+                   "valid_mean_predictor_loss": mean_loss, "lr": schedule.get_last_lr()[0],
+                   "elapsed_s": time.perf_counter() - began}
+            running = []
+            history.append(row)
+            log.info("step %d/%d  loss %.4g  held-out %.4g (mean predictor %.4g)  %.0f s", done, settings.steps,
+                     row["train_loss"], valid_loss, mean_loss, row["elapsed_s"])
+            model.save(latest, {"optimizer": optimizer.state_dict(), "schedule": schedule.state_dict(),
+                                "batches": batches.get_state(), "step": done, "history": history,
+                                "elapsed_s": row["elapsed_s"], "settings": asdict(settings)})
+    return model.eval(), history
+
+
+def write_history(history: list[dict], path: str | Path) -> None:
+    """The learning history as CSV."""
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(history[0]))
+        writer.writeheader()
+        writer.writerows(history)

@@ -1,0 +1,86 @@
+SHIPPED_ENDSTATE = os.path.join(workflow.basedir, "rgns/models")
+
+if config["endstate"]["model"] == "shipped":
+
+    rule shipped_endstate:
+        """Take the pretrained end-state surrogate shipped with the package (its card:
+        rgns/models/endstate_card.md), checked to serve this config."""
+        input:
+            model=os.path.join(SHIPPED_ENDSTATE, "endstate.pt"),
+            card=os.path.join(SHIPPED_ENDSTATE, "endstate_card.json"),
+            curve=os.path.join(SHIPPED_ENDSTATE, "endstate_curve.png"),
+        output:
+            model="results/model/endstate.pt",
+            curve=report("results/model/endstate_curve.png", caption="../docs/captions/endstate_curve.rst", category="End-state surrogate"),
+            evaluation="results/model/endstate_evaluation.json",
+        params:
+            config=lambda wildcards: {key: config[key] for key in ("domain", "mesh", "mpm")},
+        log:
+            "logs/endstate/shipped.log",
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/shipped_endstate.py"
+
+else:
+
+    rule endstate_data:
+        """One chunk of a test case's training realizations (drawn from endstate.data_seed), run by
+        the embedded MPM as one batch; their first and last frames."""
+        output:
+            "results/endstate/data/{case}/chunk_{chunk}.h5",
+        params:
+            endstate_data_params,
+        log:
+            "logs/endstate_data/{case}/chunk_{chunk}.log",
+        resources:
+            mem_mb=2000,
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/endstate_data.py"
+
+    rule train_endstate:
+        """Train the end-state surrogate on every test case's training chunks (resumes from
+        results/model/endstate_checkpoints after a kill)."""
+        input:
+            expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=TEST_CASES, chunk=endstate_chunk_ids()),
+        output:
+            model="results/model/endstate.pt",
+            history="results/model/endstate_history.csv",
+            curve=report("results/model/endstate_curve.png", caption="../docs/captions/endstate_curve.rst", category="End-state surrogate"),
+            evaluation="results/model/endstate_evaluation.json",
+        params:
+            endstate=config["endstate"],
+            domain=config["domain"],
+            mesh=config["mesh"],
+            checkpoints="results/model/endstate_checkpoints",
+        log:
+            "logs/train/endstate.log",
+        threads: config["endstate"]["threads"]
+        resources:
+            mem_mb=4000,
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/train_endstate.py"
+
+    rule endstate_card:
+        """The trained end-state surrogate's card: config, data fingerprint, steps, time, learning
+        curve and its validation table against fresh MPM runs of the test cases."""
+        input:
+            data=expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=TEST_CASES, chunk=endstate_chunk_ids()),
+            history="results/model/endstate_history.csv",
+            validation="results/report/validation/table.md",
+        output:
+            card="results/model/endstate_card.json",
+            markdown="results/model/endstate_card.md",
+        params:
+            config=lambda wildcards: config,
+            cases=TEST_CASES,
+        log:
+            "logs/train/endstate_card.log",
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/endstate_card.py"
