@@ -22,17 +22,17 @@ pytestmark = pytest.mark.workflow
 
 
 def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped_model(tmp_path):
-    """gns.model shipped (the default): no training-set MPM run and no training is scheduled."""
+    """The shipped end-state surrogate (the default): no training-set MPM run and no training is scheduled."""
     jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map"))
     config = load_config(REPO / "config" / "config.yaml")
-    assert config["gns"]["model"] == "shipped"
+    assert config["montecarlo"]["simulator"] == "endstate" and config["endstate"]["model"] == "shipped"
     cases = {name: groups for name, groups in config["sets"].items() if name not in ("train", "valid")}
     sizes = [sum(group["count"] for group in groups) for groups in cases.values()]
     chunks = sum(-(-size // config["mpm"]["chunk_size"]) for size in sizes)
     montecarlo = config["montecarlo"]
     mc_cases = len(montecarlo["cases"])
     assert jobs == {"geometry": sum(sizes), "random_field": sum(sizes), "mpm_input": sum(sizes), "mpm_run": chunks,
-                    "pack": len(sizes), "scene_preview": len(sizes), "shipped_model": 1,
+                    "pack": len(sizes), "scene_preview": len(sizes), "shipped_endstate": 1,
                     "validation_rollout": len(cases), "validate": 1,
                     "mc_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
                     "mc_mean_field": mc_cases, "mc_collect": mc_cases, "exceedance": mc_cases, "zoning": mc_cases,
@@ -44,6 +44,7 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
 def test_training_from_scratch_schedules_the_training_sets_and_the_training(tmp_path):
     config = load_config(REPO / "config" / "config.yaml")
     config["gns"]["model"] = "train"
+    config["montecarlo"]["simulator"] = "gns"
     jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map", config=write_config(tmp_path / "c.yaml", config)))
     sizes = [sum(group["count"] for group in groups) for groups in config["sets"].values()]
     assert jobs["train"] == 1 and "shipped_model" not in jobs

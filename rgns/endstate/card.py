@@ -16,7 +16,7 @@ from rgns.shipped import ShippedModelError, data_fingerprint
 
 SERVED_KEYS = (("domain", "length_m"), ("domain", "height_m"), ("mesh", "cell_size_m"),
                ("mesh", "particles_per_cell"), ("mpm", "duration_s"), ("mpm", "gravity_m_s2"),
-               ("mpm", "density_kg_m3"), ("mpm", "cohesion_pa"), ("mpm", "element"))
+               ("mpm", "density_kg_m3"), ("mpm", "cohesion_pa"), ("mpm", "youngs_modulus_pa"), ("mpm", "floor_friction"))
 
 
 def served(config: dict[str, Any]) -> dict[str, Any]:
