@@ -72,7 +72,7 @@ BAD = [
     (("montecarlo", "realizations"), 1, r"'montecarlo.realizations' = 1"),
     (("montecarlo", "chunk_size"), 10, r"'montecarlo.chunk_size' = 10: not a multiple of montecarlo.batch_size = 4"),
     (("montecarlo", "fidelity", "paired"), 1, r"'montecarlo.fidelity.paired' = 1: 0 \(off\) or between 2 and montecarlo.realizations = 256"),
-    (("montecarlo", "fidelity", "paired"), 65, r"'montecarlo.fidelity.paired' = 65: 0 \(off\) or between 2"),
+    (("montecarlo", "fidelity", "paired"), 257, r"'montecarlo.fidelity.paired' = 257: 0 \(off\) or between 2"),
     (("montecarlo", "fidelity", "high_cell_size_m"), 1.0, r"'montecarlo.fidelity.high_cell_size_m' = 1.0: must be finer than mesh.cell_size_m = 1.0"),
     (("hazard", "zoning_thresholds"), [0.9, 0.1, 0.5, 0.01], r"'hazard.zoning_thresholds' = \[0.9, 0.1, 0.5, 0.01\]: must be strictly decreasing"),
     (("hazard", "zoning_thresholds"), [0.9, 0.5, 0.1], r"'hazard.zoning_thresholds' = \[0.9, 0.5, 0.1\]"),
