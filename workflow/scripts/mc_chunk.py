@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import torch
 
-from rgns.gate import GateError, simulator_for
+from rgns.gate import SURROGATE_NAMES, GateError, simulator_for
 from rgns.endstate.model import load_model
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
@@ -19,6 +19,7 @@ log = log_to_file(snakemake.log[0])
 torch.set_num_threads(snakemake.threads)
 inputs = CaseInputs.from_params(snakemake.params.inputs)
 settings = RunSettings.from_params(snakemake.params.run)
+surrogate = settings.simulator
 if snakemake.input.gate:
     try:
         settings = replace(settings, simulator=simulator_for(snakemake.input.gate[0], inputs.case))
@@ -27,8 +28,8 @@ if snakemake.input.gate:
         print(f"rgns: {error}", file=sys.__stderr__, flush=True)
         sys.exit(1)
     if settings.simulator not in SURROGATES:
-        log.warning("%s: the learned simulator failed the validation gate: these realizations are run by MPM",
-                    inputs.case)
+        log.warning("%s: the %s failed the validation gate: these realizations are run by MPM", inputs.case,
+                    SURROGATE_NAMES[surrogate])
 loaders = {"gns": lambda path: load_simulator(path, settings.device).eval(),
            "endstate": lambda path: load_model(path, settings.device)}
 use_model = snakemake.input.model and settings.simulator in SURROGATES
