@@ -37,6 +37,7 @@ from rgns.mpm.solver import EngineSettings, RunResult, run_batch
 from rgns.realizations import FINISHED, MEAN_FIELD, CaseInputs, Realization, draw_realization, mean_field_realization
 from rgns.screening import ScreenSettings, minimum_factor_of_safety
 from rgns.tables import TableError, read_csv
+from rgns.trajectories import frame_count
 
 SIMULATORS = ("gns", "endstate", "mpm")
 SURROGATES = ("gns", "endstate")  # the learned simulators, validated against MPM before use
@@ -165,7 +166,7 @@ class RunSettings:
         section, mpm = params["montecarlo"], params["mpm"]
         duration_s = section["duration_s"] or mpm["duration_s"]
         return cls(simulator=section["simulator"], batch_size=section["batch_size"],
-                   frames=int(round(duration_s / mpm["frame_interval_s"])) + 1,
+                   frames=frame_count(duration_s, mpm["frame_interval_s"]),
                    frame_interval_s=mpm["frame_interval_s"], metrics=MetricSettings(**params["metrics"]),
                    mpm=mpm, device=section["device"], keep_frames=section["keep_frames"],
                    rollout=rollout_settings(section["rollout"], mpm["frame_interval_s"], section["keep_frames"]),

@@ -34,19 +34,29 @@ def read_card(directory: str | Path = MODELS, name: str = "card.json") -> dict[s
         raise ShippedModelError(f"{path}: not a readable model card ({error})") from error
 
 
+def tied_values(config: dict[str, Any], keys: tuple[tuple[str, str], ...] = SERVED_KEYS) -> dict[str, Any]:
+    """The values of ``keys`` (section, key) in ``config``, named "section.key"."""
+    return {".".join(key): config[key[0]].get(key[1]) for key in keys}
+
+
+def refuse_unserved(trained: dict[str, Any], config: dict[str, Any], model: str, setting: str) -> None:
+    """Raise naming every tied key whose value in ``config`` differs from ``trained`` (its values as trained)."""
+    keys = tuple(tuple(name.split(".", 1)) for name in trained)
+    wrong = [f"{name} is {value!r}, the model was trained at {trained[name]!r}"
+             for name, value in tied_values(config, keys).items() if value != trained[name]]
+    if wrong:
+        raise ShippedModelError(f"the shipped {model} does not serve this config: " + "; ".join(wrong)
+                                + f" (set {setting}: train to train one for it)")
+
+
 def served(card: dict[str, Any]) -> dict[str, Any]:
     """The values of the keys the model is tied to, as trained."""
-    return {".".join(key): card["config"][key[0]][key[1]] for key in SERVED_KEYS}
+    return tied_values(card["config"])
 
 
 def check_serves(card: dict[str, Any], config: dict[str, Any]) -> None:
     """Raise naming every tied key whose value differs between the card and ``config``."""
-    trained = served(card)
-    wrong = [f"{name} is {config[name.split('.')[0]][name.split('.')[1]]!r}, the model was trained at {value!r}"
-             for name, value in trained.items() if config[name.split(".")[0]][name.split(".")[1]] != value]
-    if wrong:
-        raise ShippedModelError("the shipped GNS does not serve this config: " + "; ".join(wrong)
-                                + " (set gns.model: train to train one for it)")
+    refuse_unserved(served(card), config, "GNS", "gns.model")
 
 
 def install(directory: str | Path, config: dict[str, Any], model_out: str | Path, curve_out: str | Path,

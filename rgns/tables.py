@@ -6,6 +6,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from rgns.atomic import atomic_path
+
 
 class TableError(ValueError):
     """A table file is missing, unreadable or lacks a column; the message names the file."""
@@ -13,11 +15,8 @@ class TableError(ValueError):
 
 def write_csv(table: pd.DataFrame, path: str | Path) -> None:
     """Write ``table`` to ``path`` through a temporary file, so a killed job leaves no half table."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(path.name + ".partial")
-    table.to_csv(partial, index=False)
-    os.replace(partial, path)
+    with atomic_path(path) as partial:
+        table.to_csv(partial, index=False)
 
 
 def _last_byte(path: str | Path) -> bytes:

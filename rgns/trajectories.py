@@ -24,6 +24,8 @@ from typing import Any, Iterable, Iterator
 import h5py
 import numpy as np
 
+from rgns.atomic import atomic_path
+
 SOIL = 6  # particle type of soil, as in the geoelements/gns datasets
 FORMAT_VERSION = 1
 PER_PARTICLE = ("particle_type", "friction_deg", "volume_m2", "mass_kg")
@@ -35,6 +37,11 @@ def check_keep(keep: str) -> None:
     """A ValueError naming ``keep`` unless it is one of KEEP_MODES."""
     if keep not in KEEP_MODES:
         raise ValueError(f"keep = {keep!r}: expected one of {KEEP_MODES}")
+
+
+def frame_count(duration_s: float, frame_interval_s: float) -> int:
+    """Frames of a run of ``duration_s`` written every ``frame_interval_s``, the initial one included."""
+    return int(round(duration_s / frame_interval_s)) + 1
 
 
 def kept_frames(keep: str, frames: int) -> np.ndarray:
@@ -153,16 +160,9 @@ def _read_group(group: h5py.Group, where: str) -> Trajectory:
 @contextmanager
 def _atomic_h5(path: str | Path) -> Iterator[h5py.File]:
     """An HDF5 file written under a temporary name and renamed only when complete."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_suffix(path.suffix + ".partial")
-    try:
-        with h5py.File(partial, "w") as handle:
-            handle.attrs["format_version"] = FORMAT_VERSION
-            yield handle
-        partial.replace(path)
-    finally:
-        partial.unlink(missing_ok=True)
+    with atomic_path(path) as partial, h5py.File(partial, "w") as handle:
+        handle.attrs["format_version"] = FORMAT_VERSION
+        yield handle
 
 
 def write_trajectory(path: str | Path, trajectory: Trajectory, compression: str = "gzip") -> None:

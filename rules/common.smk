@@ -9,6 +9,7 @@ from rgns.fields import FIELD_KEYS
 from rgns.geometry import DRAW_KEYS
 from rgns.realizations import CaseInputs, mean_vertices
 from rgns.sets import realization_group, realization_ids
+from rgns.trajectories import frame_count
 
 SETS = list(config["sets"])
 
@@ -277,7 +278,6 @@ def endstate_data_params(wildcards):
     section = config["endstate"]
     first = int(wildcards.chunk) * section["chunk_size"]
     last = min(first + section["chunk_size"], section["realizations"] + section["held_out"])
-    duration_s = config["mpm"]["duration_s"]
     return {"inputs": asdict(CaseInputs.from_config(config | {"seed": section["data_seed"]}, wildcards.case)),
             "indices": list(range(first, last)), "mpm": config["mpm"],
-            "frames": int(round(duration_s / config["mpm"]["frame_interval_s"])) + 1}
+            "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}

@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from rgns.shipped import ShippedModelError, data_fingerprint
+from rgns.shipped import data_fingerprint, refuse_unserved, tied_values
 
 SERVED_KEYS = (("domain", "length_m"), ("domain", "height_m"), ("mesh", "cell_size_m"),
                ("mesh", "particles_per_cell"), ("mpm", "duration_s"), ("mpm", "gravity_m_s2"),
@@ -21,16 +21,12 @@ SERVED_KEYS = (("domain", "length_m"), ("domain", "height_m"), ("mesh", "cell_si
 
 def served(config: dict[str, Any]) -> dict[str, Any]:
     """The values of the keys the model is tied to."""
-    return {".".join(key): config[key[0]].get(key[1]) for key in SERVED_KEYS}
+    return tied_values(config, SERVED_KEYS)
 
 
 def check_serves(card: dict[str, Any], config: dict[str, Any]) -> None:
     """Raise naming every tied key whose value differs between the card and ``config``."""
-    wrong = [f"{name} is {value!r}, the model was trained at {card['serves'][name]!r}"
-             for name, value in served(config).items() if value != card["serves"][name]]
-    if wrong:
-        raise ShippedModelError("the shipped end-state surrogate does not serve this config: " + "; ".join(wrong)
-                                + " (set endstate.model: train to train one for it)")
+    refuse_unserved(card["serves"], config, "end-state surrogate", "endstate.model")
 
 
 def evaluation_of(history: list[dict[str, Any]], shipped: bool = False) -> dict[str, Any]:

@@ -14,6 +14,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from rgns.atomic import atomic_path
 from rgns.montecarlo import simulate_mpm
 from rgns.realizations import CaseInputs, draw_realization
 
@@ -46,16 +47,13 @@ def simulate_end_states(inputs: CaseInputs, indices: list[int], mpm: dict, frame
 
 def write_end_states(path: str | Path, states: list[EndState], statuses: list[str]) -> None:
     """One chunk's end states, written atomically."""
-    path = Path(path)
-    partial = path.with_name(path.name + ".partial")
-    with h5py.File(partial, "w") as handle:
+    with atomic_path(path) as partial, h5py.File(partial, "w") as handle:
         handle.attrs["statuses"] = json.dumps(statuses)
         for state in states:
             group = handle.create_group(f"{state.case}/{state.index:05d}")
             group.attrs["index"], group.attrs["case"] = state.index, state.case
             for name in ("initial", "final", "friction_deg", "volume_m2"):
                 group.create_dataset(name, data=np.asarray(getattr(state, name), dtype=np.float64))
-    partial.replace(path)
 
 
 def read_end_states(paths: list[str | Path]) -> list[EndState]:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from rgns.atomic import atomic_path
 from rgns.endstate.lattice import INPUT_CHANNELS, Lattice
 from rgns.endstate.network import UNet
 
@@ -61,9 +62,8 @@ class EndStateModel(torch.nn.Module):
     def save(self, path: str | Path, extra: dict | None = None) -> None:
         state = {"lattice": asdict(self.lattice), "normalization": asdict(self.normalization), "widths": self.widths,
                  "weights": self.state_dict()} | (extra or {})
-        partial = Path(f"{path}.partial")
-        torch.save(state, partial)
-        partial.replace(path)
+        with atomic_path(path) as partial:
+            torch.save(state, partial)
 
 
 def load_model(path: str | Path, device: str = "cpu") -> EndStateModel:

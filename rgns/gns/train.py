@@ -30,6 +30,7 @@ import torch
 import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
 
+from rgns.atomic import atomic_path
 from rgns.gns.data import WindowSampler
 from rgns.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
 from rgns.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, OneStepLoss, random_walk_noise
@@ -205,9 +206,8 @@ def fingerprint(simulator: LearnedSimulator, settings: TrainSettings) -> str:
 
 
 def _save(path: Path, state: dict[str, Any]) -> None:
-    partial = path.with_suffix(".partial")
-    torch.save(state, partial)
-    partial.replace(path)
+    with atomic_path(path) as partial:
+        torch.save(state, partial)
 
 
 def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_path: str, out_dir: str | Path,

@@ -27,7 +27,7 @@ from rgns.cbgeo.case import Case, CaseError
 from rgns.mpm.mohr_coulomb import MohrCoulomb
 from rgns.mpm.shape import BASES, Basis, RegularGrid, Region
 from rgns.mpm.step import Boundary, Particles, substep
-from rgns.trajectories import kept_frames
+from rgns.trajectories import frame_count, kept_frames
 
 log = logging.getLogger(__name__)
 
@@ -231,7 +231,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     g = abs(gravity[1])
     frame_interval_s = frame_interval_s or cases[0].frame_interval_s
     duration_s = duration_s or cases[0].duration_s
-    n_frames = int(round(duration_s / frame_interval_s)) + 1
+    n_frames = frame_count(duration_s, frame_interval_s)
     kept = kept_frames(keep, n_frames)
 
     particles = particles_of(cases, settings, device)
