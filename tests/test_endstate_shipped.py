@@ -42,8 +42,8 @@ def test_the_shipped_model_serves_the_default_config_and_refuses_another_scale()
 
 def test_the_shipped_model_agrees_with_fresh_mpm_runs_of_case_1(shipped):
     """16 case-1 realizations beyond those the Monte Carlo and the validation use (drawn from the
-    default seed; the model trained on another seed's): R² at least 0.85 for R, V and I, and the mean
-    runout within 5 %."""
+    default seed; the model trained on another seed's): R² at least 0.9 for R, V and I (the issue's
+    target; measured 0.988 / 0.995 / 0.950), and the mean runout within 5 % (measured −0.2 %)."""
     inputs = CaseInputs.from_config(DEFAULT, "case1")
     indices = list(range(400, 416))
     mpm = run_realizations(inputs, indices, _settings("mpm"))
@@ -51,14 +51,14 @@ def test_the_shipped_model_agrees_with_fresh_mpm_runs_of_case_1(shipped):
     for key in METRICS:
         truth, predicted = mpm[key].to_numpy(float), surrogate[key].to_numpy(float)
         print(key, r_squared(truth, predicted), predicted.mean() / truth.mean() - 1)
-        assert r_squared(truth, predicted) >= 0.85, key
+        assert r_squared(truth, predicted) >= 0.9, key
     assert abs(surrogate["runout_m"].mean() / mpm["runout_m"].mean() - 1) <= 0.05
 
 
 def test_slopes_mpm_leaves_standing_stay_put(shipped):
     """The test cases' long slope (39.8° face) at φ 45 ± 2° and at a uniform 50° and 60°: where MPM
     leaves a realization standing (checked here), the model runs nothing out: R = I = 0, and at most
-    two cells' worth of surface points moved 1 m (V ≤ 2 m² of the 240 m² slope; measured 0–1.5 m²,
+    two cells' worth of surface points moved 1 m (V ≤ 2 m² of the 240 m² slope; measured 0–1 m²,
     MPM 0–1 m²); the uniform slopes (limit equilibrium: stable) move no point 1 m."""
     config = copy.deepcopy(DEFAULT)
     config["sets"]["case4"][0] |= {"friction_mean_deg": 45.0, "friction_std_deg": 2.0}
