@@ -45,6 +45,7 @@ from rgns.geometry import Scene, seed_particles  # noqa: E402
 from rgns.metrics import MetricSettings  # noqa: E402
 from rgns.montecarlo import measure, simulate_mpm  # noqa: E402
 from rgns.realizations import CaseInputs, Realization, draw_realization  # noqa: E402
+from rgns.trajectories import frame_count  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
@@ -86,7 +87,7 @@ def uniform(vertices: np.ndarray, friction_deg: float, cell_size_m: float, lengt
 
 def simulate(config: dict, batch: list[Realization], mpm: dict, duration_s: float) -> tuple[list[dict], float, list]:
     """Table rows of a batch run of the embedded engine, its wall time per realization, and the results."""
-    frames = int(round(duration_s / mpm["frame_interval_s"])) + 1
+    frames = frame_count(duration_s, mpm["frame_interval_s"])
     start = time.perf_counter()
     simulated = simulate_mpm(batch, mpm, frames, keep="ends")
     seconds = (time.perf_counter() - start) / len(batch)

@@ -44,6 +44,7 @@ from rgns.montecarlo import simulate_endstate, simulate_mpm  # noqa: E402
 from rgns.multifidelity import (optimal_ratio, point_estimate, predicted_exceedance,  # noqa: E402
                                 regression_point_estimate, speedup)
 from rgns.realizations import FINISHED, draw_realization  # noqa: E402
+from rgns.trajectories import frame_count  # noqa: E402
 from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the same drawing and measuring)
 
 REPO = Path(__file__).resolve().parent.parent
@@ -65,7 +66,7 @@ def run_chunk(indices: list[int]) -> dict[str, tuple[list[dict], float]]:
         mpm = {**config["mpm"], "embedded": {**config["mpm"].get("embedded", {}), **embedded}}
         batch = [draw_realization(case_inputs(config, "case1", cell_size_m), i) for i in indices]
         start = time.perf_counter()
-        simulated = simulate_mpm(batch, mpm, int(round(mpm["duration_s"] / mpm["frame_interval_s"])) + 1, keep="ends")
+        simulated = simulate_mpm(batch, mpm, frame_count(mpm["duration_s"], mpm["frame_interval_s"]), keep="ends")
         seconds = time.perf_counter() - start
         rows = measured(batch, simulated, config)
         out[name] = ([{k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")} for row in rows],

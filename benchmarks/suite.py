@@ -62,6 +62,7 @@ from rgns.montecarlo import (Simulated, factor_of_safety, measure, rollout_setti
                              simulate_gns, simulate_mpm)
 from rgns.realizations import CaseInputs, draw_realization  # noqa: E402
 from rgns.screening import ScreenSettings  # noqa: E402
+from rgns.trajectories import frame_count  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
@@ -271,7 +272,7 @@ def main() -> None:
     torch.set_num_threads(1)
     config = load_config(REPO / "config" / "config.yaml")
     duration_s = args.duration_s or config["mpm"]["duration_s"]
-    frames = int(round(duration_s / config["mpm"]["frame_interval_s"])) + 1
+    frames = frame_count(duration_s, config["mpm"]["frame_interval_s"])
     n = args.realizations
     OUT.mkdir(parents=True, exist_ok=True)
     routes: dict[str, dict] = {}
