@@ -6,7 +6,9 @@ is a mean: the means of R, V and I by :func:`rgns.multifidelity.control_variate`
 P(I > d) at every distance d, and P(x affected) = P(front ≥ x) − P(back scarp > x) at every point
 of the zoning profile, by :func:`rgns.multifidelity.regression_control_variate` (the cheap route's
 predicted exceedance as control variate: an indicator 1[l > d] correlates poorly with 1[h > d]
-near d). Costs come from the Snakemake benchmark files of the chunks.
+near d). Exceedance curves are rearranged to be non-increasing; P(x affected) is the difference of
+its two rearranged terms, so the corrected zones rise to one maximum and fall (no islands). Costs
+come from the Snakemake benchmark files of the chunks.
 """
 from __future__ import annotations
 
@@ -26,7 +28,7 @@ import pandas as pd  # noqa: E402
 from rgns.hazard import ZONE_LEVELS, zone_levels, zones  # noqa: E402
 from rgns.multifidelity import (ControlVariateEstimate, MultiFidelityError, allocate, control_variate,  # noqa: E402
                                 optimal_ratio, pairs_for_half_width, predicted_half_width,
-                                regression_control_variate, speedup)
+                                regression_control_variate, regression_point_estimate, speedup)
 from rgns.realizations import FINISHED  # noqa: E402
 
 METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
@@ -65,6 +67,18 @@ def rearranged(probability: np.ndarray) -> np.ndarray:
     return np.sort(np.clip(np.asarray(probability, dtype=float), 0.0, 1.0))[::-1]
 
 
+def affected_probability(high: np.ndarray, low: np.ndarray, x_m: np.ndarray) -> np.ndarray:
+    """P(x affected) = P(front ≥ x) − P(back scarp > x) from pairs ``high`` [n, 2] and cheap runs ``low``
+    [N, 2] (front, rear; the first n paired), each term rearranged to be non-increasing in x before
+    the difference: estimated as one, the difference wiggles where the terms overlap, and a wiggle
+    across a zoning threshold drew an island (a 0.75 m "extremely low" stretch inside "low")."""
+    n = len(high)
+    terms = [rearranged(regression_point_estimate(high[:, [k]], low[:n, [k]], low[n:, [k]] if len(low) > n else None,
+                                                  x_m, inclusive=np.array([inclusive])))
+             for k, inclusive in ((0, True), (1, False))]
+    return np.clip(terms[0] - terms[1], 0.0, 1.0)
+
+
 def distance_at(d_m: np.ndarray, probability: np.ndarray, p: float) -> float | None:
     """The first distance whose exceedance probability is at most p (None if it never drops there)."""
     below = np.nonzero(probability <= p)[0]
@@ -95,14 +109,16 @@ def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cos
                                    "corrected": distance_at(d_m, corrected, p)}
                           for p in settings["exceedance_probabilities"]}}
     x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
-    estimate = regression_control_variate(high[["front_x_m", "rear_x_m"]].to_numpy(float),
-                                          low[["front_x_m", "rear_x_m"]].to_numpy(float), x_m, signs=[1.0, -1.0],
-                                          inclusive=[True, False], confidence=confidence, seed=seed)
-    probability, uncorrected = np.clip(estimate.estimate, 0.0, 1.0), estimate.low_mean
+    ends_high, ends_low = high[["front_x_m", "rear_x_m"]].to_numpy(float), low[["front_x_m", "rear_x_m"]].to_numpy(float)
+    estimate = regression_control_variate(ends_high, ends_low, x_m, signs=[1.0, -1.0], inclusive=[True, False],
+                                          confidence=confidence, seed=seed)
+    probability, uncorrected = affected_probability(ends_high, ends_low, x_m), estimate.low_mean
     thresholds = settings["thresholds"]
     record["zoning"] = {
         "x_m": x_m.tolist(), "uncorrected": uncorrected.tolist(), "corrected": probability.tolist(),
-        "lower": np.clip(estimate.lower, 0, 1).tolist(), "upper": np.clip(estimate.upper, 0, 1).tolist(),
+        # the band: the joint estimate's bootstrap interval, widened where needed to hold the rearranged estimate
+        "lower": np.minimum(np.clip(estimate.lower, 0, 1), probability).tolist(),
+        "upper": np.maximum(np.clip(estimate.upper, 0, 1), probability).tolist(),
         "zones_uncorrected": [asdict(zone) for zone in zones(x_m, zone_levels(uncorrected, thresholds))],
         "zones_corrected": [asdict(zone) for zone in zones(x_m, zone_levels(probability, thresholds))]}
     runout = record["means"]["runout_m"]

@@ -5,6 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from rgns.hazard import ZONE_LEVELS
 from rgns.multifidelity import MultiFidelityError
 from rgns.multifidelity_outputs import correct, write_multifidelity
 
@@ -79,6 +80,25 @@ def test_corrected_exceedance_curves_are_probabilities_that_never_rise():
         for name in ("corrected", "lower", "upper"):
             values = np.array(curve[name])
             assert np.all(np.diff(values) <= 0.0) and values.min() >= 0.0 and values.max() <= 1.0
+
+
+def test_corrected_zones_rise_to_one_maximum_and_fall():
+    """A noisy cheap route whose fronts and scarps scatter: the corrected P(x affected) is built from the
+    rearranged P(front ≥ x) and P(scarp > x), so it never dips and rises again, and the zones
+    (ordered by level) form no island; within [0, 1] and inside its band."""
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        accurate = rng.gamma(4.0, 2.0, 160)
+        cheap = 0.7 * accurate + rng.normal(0.0, 2.0, 160)
+        zoning = correct(table(cheap), table(accurate[:12]), SETTINGS, COST)["zoning"]
+        p = np.array(zoning["corrected"])
+        peak = int(np.argmax(p))
+        assert np.all(np.diff(p[: peak + 1]) >= 0.0) and np.all(np.diff(p[peak:]) <= 0.0), seed
+        assert p.min() >= 0.0 and p.max() <= 1.0
+        assert np.all(np.array(zoning["lower"]) <= p) and np.all(p <= np.array(zoning["upper"]))
+        ranks = np.array([ZONE_LEVELS.index(zone["level"]) for zone in zoning["zones_corrected"]])
+        top = int(np.argmin(ranks))  # 0 = extremely high
+        assert np.all(np.diff(ranks[: top + 1]) < 0) and np.all(np.diff(ranks[top:]) > 0), (seed, ranks)
 
 
 PLAN = {"target_half_width_m": 0.5, "max_paired": None, "realizations": 200, "chunk_size": 16, "confidence": 0.95}
