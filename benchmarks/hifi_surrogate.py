@@ -30,7 +30,7 @@ import multifidelity as mf
 from rgns.config import load_config
 from rgns.endstate.data import EndState, read_end_states, write_end_states
 from rgns.endstate.model import EndStateModel, load_model
-from rgns.endstate.train import Examples, examples, held_out_loss, masked_loss
+from rgns.endstate.train import Examples, examples, held_out_loss, training_step
 from rgns.montecarlo import simulate_mpm
 from rgns.realizations import draw_realization
 from rgns.trajectories import frame_count
@@ -74,8 +74,9 @@ def run_chunk(seed: int, indices: list[int], data: Path) -> tuple[int, float, li
                        coarse_grained(c.scene.positions, f.scene.positions, run.positions[-1], spacing),
                        c.friction_deg, c.scene.volumes)
               for f, c, run in zip(fine, coarse, runs) if run.status == "ok"]
-    write_end_states(data / f"s{seed}_{indices[0]:04d}.h5", states, [run.status for run in runs])
-    return indices[0], seconds, [run.status for run in runs]
+    statuses = [run.status for run in runs]
+    write_end_states(data / f"s{seed}_{indices[0]:04d}.h5", states, statuses)
+    return indices[0], seconds, statuses
 
 
 def make_data(seed: int, count: int, data: Path, workers: int) -> None:
@@ -98,16 +99,10 @@ def fine_tune(model: EndStateModel, train: Examples, held: Examples, steps: int,
     history = []
     model.train()
     for step in range(1, steps + 1):
-        pick = torch.randint(0, len(train), (16,), generator=batches)
-        loss = masked_loss(model, Examples(train.inputs[pick], train.targets[pick]))
-        optimizer.zero_grad()
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
-        optimizer.step()
-        schedule.step()
+        loss = training_step(model, optimizer, schedule, train, 16, batches, 1.0)
         if step % 100 == 0 or step == steps:
             model.eval()
-            history.append({"step": step, "train_loss": loss.item(), "held_out_loss": held_out_loss(model, held)[0]})
+            history.append({"step": step, "train_loss": loss, "held_out_loss": held_out_loss(model, held)[0]})
             print(history[-1], flush=True)
             model.train()
     return history
@@ -137,9 +132,8 @@ def main() -> None:
     model.eval().save(tuned)
     record = json.loads((mf.OUT / "multifidelity.json").read_text())
     routes = {name: record["routes"][name] for name in (mf.HIGH, "MPM 1 m")}
-    for label, path in (("end-state surrogate, shipped (1 m)", shipped), ("end-state surrogate, tuned on 0.5 m", tuned)):
-        mf.add_endstate_route(routes, record["n"], path)  # as "end-state surrogate (shipped)"
-        routes[label] = routes.pop("end-state surrogate (shipped)")
+    mf.add_endstate_route(routes, record["n"], shipped, "end-state surrogate, shipped (1 m)")
+    mf.add_endstate_route(routes, record["n"], tuned, "end-state surrogate, tuned on 0.5 m")
     result = {"args": {k: str(v) for k, v in vars(args).items()}, "train": len(train), "held_out": len(held),
               "before": before, "history": history, "fine_tune_s": time.perf_counter() - start,
               "n": record["n"], "routes": routes, "machine": record["machine"]}

@@ -101,9 +101,11 @@ def add_gns_route(routes: dict, n: int) -> None:
             routes["GNS (shipped)"] = {"rows": record["rows"][:n], "s_per_realization": record["s_per_realization"]}
 
 
-def add_endstate_route(routes: dict, n: int, model_path: Path = REPO / "rgns" / "models" / "endstate.pt") -> None:
-    """The end-state surrogate's rows of realizations 0..n-1 and its seconds per realization (one
-    thread, the batches of montecarlo.batch_size the pipeline uses; drawing not counted, as for MPM)."""
+def add_endstate_route(routes: dict, n: int, model_path: Path = REPO / "rgns" / "models" / "endstate.pt",
+                       name: str = "end-state surrogate (shipped)") -> None:
+    """An end-state surrogate's rows of realizations 0..n-1 and its seconds per realization, as route
+    ``name`` (one thread, the batches of montecarlo.batch_size the pipeline uses; drawing not counted,
+    as for MPM)."""
     torch.set_num_threads(1)
     config = load_config(REPO / "config" / "config.yaml")
     model = load_model(model_path)
@@ -116,7 +118,7 @@ def add_endstate_route(routes: dict, n: int, model_path: Path = REPO / "rgns" / 
         seconds += time.perf_counter() - start
         rows += [{k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")}
                  for row in measured(batch, simulated, config)]
-    routes["end-state surrogate (shipped)"] = {"rows": rows, "s_per_realization": seconds / n}
+    routes[name] = {"rows": rows, "s_per_realization": seconds / n}
 
 
 QUANTITY_NAMES = ("mean R", "P(R > r50)", "P(R > r10)", "P(R > r50), regression", "P(R > r10), regression", "mean V",

@@ -88,6 +88,19 @@ def held_out_loss(model: EndStateModel, batch: Examples) -> tuple[float, float]:
     return float(masked_loss(model, batch)), float(baseline)
 
 
+def training_step(model: EndStateModel, optimizer: torch.optim.Optimizer, schedule: torch.optim.lr_scheduler.LRScheduler,
+                  data: Examples, batch_size: int, batches: torch.Generator, gradient_clip: float) -> float:
+    """One optimiser step on a batch drawn with replacement from ``data``; its loss."""
+    pick = torch.randint(0, len(data), (batch_size,), generator=batches)
+    loss = masked_loss(model, Examples(data.inputs[pick], data.targets[pick]))
+    optimizer.zero_grad()
+    loss.backward()
+    torch.nn.utils.clip_grad_norm_(model.parameters(), gradient_clip)
+    optimizer.step()
+    schedule.step()
+    return loss.item()
+
+
 def train(states: list[EndState], held_out: list[EndState], lattice: Lattice,
           settings: EndStateTrainSettings, out_dir: str | Path) -> tuple[EndStateModel, list[dict]]:
     """Train (or resume from ``out_dir``'s checkpoint) and return the model and its history."""
@@ -117,14 +130,8 @@ def train(states: list[EndState], held_out: list[EndState], lattice: Lattice,
     running: list[float] = []
     model.train()
     for step in range(start, settings.steps):
-        pick = torch.randint(0, len(data), (settings.batch_size,), generator=batches)
-        loss = masked_loss(model, Examples(data.inputs[pick], data.targets[pick]))
-        optimizer.zero_grad()
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), settings.gradient_clip)
-        optimizer.step()
-        schedule.step()
-        running.append(loss.item())
+        running.append(training_step(model, optimizer, schedule, data, settings.batch_size, batches,
+                                     settings.gradient_clip))
         done = step + 1
         if done % settings.checkpoint_every == 0 or done == settings.steps:
             model.eval()
