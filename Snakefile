@@ -38,6 +38,7 @@ include: "rules/hazard.smk"
 localrules:
     mc_collect,
     mc_paired_collect,
+    mc_control_collect,
     paired_plan,
     exceedance,
     zoning,
@@ -65,6 +66,14 @@ rule pretrain_endstate:
     input:
         "results/model/endstate.pt",
         "results/model/endstate_card.md",
+
+
+rule pretrain_tuned:
+    """The accurate MPM runs of the Monte Carlo's cases and the end-state surrogate tuned on them, with its
+    card (config/pretrain_tuned.yaml makes the shipped one)."""
+    input:
+        "results/model/endstate_tuned.pt",
+        "results/model/endstate_tuned_card.md",
 
 
 rule hazard_map:

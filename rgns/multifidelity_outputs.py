@@ -91,6 +91,7 @@ def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cos
     low, high = paired_rows(low, high)
     n, confidence = len(high), settings["confidence"]
     record: dict[str, Any] = {"n_low": len(low), "n_paired": n, "high_cell_size_m": settings["high_cell_size_m"],
+                              "cheap_route": settings.get("cheap_route", "the Monte Carlo's simulator"),
                               "confidence": confidence, "cost": cost, "means": {}, "exceedance": {}}
     for key in METRICS:
         estimate = control_variate(high[[key]].to_numpy(float), low[[key]].to_numpy(float), confidence, seed=seed)
@@ -135,6 +136,7 @@ def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cos
 def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
     """Exceedance of R and I and the zoning probability: cheap route, corrected (with interval), paired accurate."""
     fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    simulator_differs = not record.get("cheap_is_simulator", True)
     for ax, key in zip(axes, CURVES):
         curve = record["exceedance"][key]
         d = curve["d_m"]
@@ -142,6 +144,9 @@ def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
         ax.step(d, curve["corrected"], where="post", color="C3", label="multi-fidelity corrected")
         ax.fill_between(d, curve["lower"], curve["upper"], step="post", color="C3", alpha=0.2,
                         label=f"{record['confidence']:.0%} interval")
+        if curve.get("simulator") is not None and simulator_differs:
+            ax.step(d, curve["simulator"], where="post", color="0.5", linestyle="--",
+                    label="Monte Carlo's simulator (its map)")
         ax.step(d, curve["paired_high"], where="post", color="k", linestyle=":",
                 label=f"accurate MPM alone (n = {record['n_paired']})")
         ax.set_xlabel(f"{METRICS[key]} (m)")
@@ -186,10 +191,19 @@ def plan_pairs(low: pd.DataFrame, pilot: pd.DataFrame, settings: dict[str, Any])
 
 
 def write_multifidelity(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float],
-                        outputs: dict[str, str], case: str, plan: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Correct, then write the JSON (with the paired-run ``plan`` where one chose the pairs) and the figure."""
+                        outputs: dict[str, str], case: str, plan: dict[str, Any] | None = None,
+                        simulator: pd.DataFrame | None = None) -> dict[str, Any]:
+    """Correct, then write the JSON (with the paired-run ``plan`` where one chose the pairs, and the Monte
+    Carlo's own means and curves: its ``simulator`` table where that is not the cheap route) and the figure."""
     record = correct(low, high, settings, cost)
     record["levels"] = list(ZONE_LEVELS)
+    own = simulator if simulator is not None else low
+    record["cheap_is_simulator"] = simulator is None
+    finished = own[own["status"].isin(FINISHED)]
+    record["simulator_means"] = {key: float(finished[key].mean()) for key in METRICS}
+    for key, curve in record["exceedance"].items():  # the Monte Carlo's own curve, what its map is drawn from
+        values = finished[key].to_numpy(float)
+        curve["simulator"] = [float(np.mean(values > d)) for d in curve["d_m"]]
     if plan is not None:
         record["plan"] = plan
     Path(outputs["json"]).write_text(json.dumps(record, indent=1, default=float) + "\n")

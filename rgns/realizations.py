@@ -10,6 +10,7 @@ curves mark.
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from typing import Any
 
@@ -63,6 +64,16 @@ class Realization:
     index: int
     scene: Scene
     friction_deg: np.ndarray
+
+
+def accurate_case_inputs(config: dict[str, Any], case: str, cell_size_m: float) -> CaseInputs:
+    """Case ``case`` drawn at ``cell_size_m`` cells: the same geometry, and the friction field on the
+    config's own grid, so a realization index is the same slope and soil at both meshes."""
+    accurate = copy.deepcopy(config)
+    accurate["random_field"]["grid_spacing_m"] = (config["random_field"]["grid_spacing_m"]
+                                                  or config["mesh"]["cell_size_m"])
+    accurate["mesh"]["cell_size_m"] = cell_size_m
+    return CaseInputs.from_config(accurate, case)
 
 
 def draw_realization(inputs: CaseInputs, index: int) -> Realization:

@@ -100,20 +100,26 @@ def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
 
 
 def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
-    """One sentence on the mean runout, cheap against corrected, and whether the interval excludes the cheap mean."""
+    """One sentence on the mean runout, the Monte Carlo's against the corrected, and whether the interval
+    excludes the Monte Carlo's mean."""
     r = record["means"]["runout_m"]
-    excluded = not r["lower"] <= r["low_mean"] <= r["upper"]
-    return (f"{case}: mean runout {r['low_mean']:.2f} m by the Monte Carlo's simulator, {r['estimate']:.2f} m "
+    own = record["simulator_means"]["runout_m"] if "simulator_means" in record else r["low_mean"]
+    excluded = not r["lower"] <= own <= r["upper"]
+    cheap = ("" if record.get("cheap_is_simulator", True)
+             else f", {r['low_mean']:.2f} m by the correction's cheap route ({record['cheap_route']})")
+    return (f"{case}: mean runout {own:.2f} m by the Monte Carlo's simulator{cheap}, {r['estimate']:.2f} m "
             f"[{r['lower']:.2f}, {r['upper']:.2f}] corrected towards the MPM at {record['high_cell_size_m']:g} m cells "
             f"over {record['n_paired']} paired realizations (cheap-route bias on the pairs {r['bias']:+.2f} m, "
-            f"correlation {r['correlation']:.2f})" + ("; the uncorrected hazard below is biased by about that much"
-                                                     if excluded else "") + "."), excluded
+            f"correlation {r['correlation']:.3f})" + ("; the uncorrected hazard below is biased by about "
+                                                      f"{own - r['estimate']:+.2f} m" if excluded else "") + "."), excluded
 
 
 def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> None:
     """The corrected means, exceedance distances and zones beside the uncorrected ones, costs, allocation."""
     record = json.loads(files["multifidelity.json"].read_text())
-    means = pd.DataFrame([{"quantity": f"mean {key}", "cheap route": m["low_mean"], "corrected": m["estimate"],
+    own = {} if record.get("cheap_is_simulator", True) else record["simulator_means"]
+    means = pd.DataFrame([{"quantity": f"mean {key}", **({"Monte Carlo": own[key]} if own else {}),
+                           "cheap route": m["low_mean"], "corrected": m["estimate"],
                            "lower": m["lower"], "upper": m["upper"], "bias on the pairs": m["bias"],
                            "correlation": m["correlation"]} for key, m in record["means"].items()])
     distances = pd.DataFrame([{"metric": key, "probability": p, "cheap route (m)": d["uncorrected"],
@@ -121,7 +127,8 @@ def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> 
                               for key, curve in record["exceedance"].items() for p, d in curve["distances"].items()])
     cost, allocation = record["cost"], record["allocation"]
     parts = [paragraph(_runout_line(case, record)[0]), table(means, 3), table(distances, 2),
-             paragraph(f"Cost per realization: cheap route {cost['low_s']:.2f} s, accurate MPM {cost['high_s']:.2f} s "
+             paragraph(f"Cheap route: {record.get('cheap_route', 'the Monte Carlo simulator')}. "
+                       f"Cost per realization: cheap route {cost['low_s']:.3g} s, accurate MPM {cost['high_s']:.2f} s "
                        f"({record['n_low']} and {record['n_paired']} realizations). With the runout correlation "
                        f"{allocation['correlation_runout']:.2f}, the optimal ratio of cheap to paired runs is "
                        f"{allocation['optimal_ratio']:.1f} and multi-fidelity reaches a given error "

@@ -34,14 +34,19 @@ def read_card(directory: str | Path = MODELS, name: str = "card.json") -> dict[s
         raise ShippedModelError(f"{path}: not a readable model card ({error})") from error
 
 
-def tied_values(config: dict[str, Any], keys: tuple[tuple[str, str], ...] = SERVED_KEYS) -> dict[str, Any]:
-    """The values of ``keys`` (section, key) in ``config``, named "section.key"."""
-    return {".".join(key): config[key[0]].get(key[1]) for key in keys}
+def tied_values(config: dict[str, Any], keys: tuple[tuple[str, ...], ...] = SERVED_KEYS) -> dict[str, Any]:
+    """The values of ``keys`` (paths such as (section, key)) in ``config``, named "section.key" (None if absent)."""
+    def value(path: tuple[str, ...]) -> Any:
+        node: Any = config
+        for part in path:
+            node = node.get(part) if isinstance(node, dict) else None
+        return node
+    return {".".join(key): value(key) for key in keys}
 
 
 def refuse_unserved(trained: dict[str, Any], config: dict[str, Any], model: str, setting: str) -> None:
     """Raise naming every tied key whose value in ``config`` differs from ``trained`` (its values as trained)."""
-    keys = tuple(tuple(name.split(".", 1)) for name in trained)
+    keys = tuple(tuple(name.split(".")) for name in trained)
     wrong = [f"{name} is {value!r}, the model was trained at {trained[name]!r}"
              for name, value in tied_values(config, keys).items() if value != trained[name]]
     if wrong:

@@ -1,13 +1,12 @@
 # Helpers shared by the rule files: which realizations exist, and the config slice each rule
 # gets through params (so a config change re-runs only the rules that read the changed keys).
-import copy
 import json
 from dataclasses import asdict
 from pathlib import Path
 
 from rgns.fields import FIELD_KEYS
 from rgns.geometry import DRAW_KEYS
-from rgns.realizations import CaseInputs, mean_vertices
+from rgns.realizations import CaseInputs, accurate_case_inputs, mean_vertices
 from rgns.sets import realization_group, realization_ids
 from rgns.trajectories import frame_count
 
@@ -200,11 +199,21 @@ def paired_plan_params(wildcards):
 
 def mc_paired_case_params(wildcards):
     """A case drawn at the accurate mesh: the same geometry, and the field on the cheap run's grid."""
-    accurate = copy.deepcopy(config)
-    accurate["random_field"]["grid_spacing_m"] = (config["random_field"]["grid_spacing_m"]
-                                                  or config["mesh"]["cell_size_m"])
-    accurate["mesh"]["cell_size_m"] = config["montecarlo"]["fidelity"]["high_cell_size_m"]
-    return asdict(CaseInputs.from_config(accurate, wildcards.case))
+    return asdict(accurate_case_inputs(config, wildcards.case, config["montecarlo"]["fidelity"]["high_cell_size_m"]))
+
+
+# the correction's cheap model: the Monte Carlo's own runs, or the tuned end-state surrogate's (mc_control_chunk)
+CONTROL = config["montecarlo"]["fidelity"]["cheap"] == "tuned"
+CHEAP_TABLE = "results/mc/{case}/control.csv" if CONTROL else "results/mc/{case}/realizations.csv"
+CHEAP_ROUTE = ("the end-state surrogate tuned to the accurate MPM" if CONTROL
+               else f"the Monte Carlo's simulator ({config['montecarlo']['simulator']})")
+
+
+def mc_control_run_params(wildcards):
+    """The Monte Carlo settings with the tuned end-state surrogate as simulator."""
+    params = mc_run_params(wildcards)
+    params["montecarlo"]["simulator"] = "endstate"
+    return params
 
 
 def mc_paired_run_params(wildcards):
@@ -221,7 +230,9 @@ def multifidelity_params(wildcards):
     case = wildcards.case
     return zoning_params(wildcards) | config["montecarlo"]["fidelity"] | {
         "exceedance_probabilities": hazard["exceedance_probabilities"],
-        "low_benchmarks": [f"results/mc/{case}/chunk_{k}.benchmark.tsv" for k in mc_chunk_ids(case)],
+        "low_benchmarks": [f"results/mc/{case}/{'control/' if CONTROL else ''}chunk_{k}.benchmark.tsv"
+                           for k in mc_chunk_ids(case)],
+        "cheap_route": CHEAP_ROUTE,
         "high_benchmark_pattern": f"results/mc/{case}/paired/chunk_{{chunk:03d}}.benchmark.tsv",
         "chunk_size": config["montecarlo"]["chunk_size"],
     }
@@ -279,5 +290,23 @@ def endstate_data_params(wildcards):
     first = int(wildcards.chunk) * section["chunk_size"]
     last = min(first + section["chunk_size"], section["realizations"] + section["held_out"])
     return {"inputs": asdict(CaseInputs.from_config(config | {"seed": section["data_seed"]}, wildcards.case)),
+            "indices": list(range(first, last)), "mpm": config["mpm"],
+            "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
+
+
+def tuned_chunk_ids():
+    """Chunk ids of the tuning realizations of each Monte Carlo case (the held-out ones last)."""
+    section = config["endstate"]["tuned"]
+    return [f"{k:03d}" for k in range(-(-(section["realizations"] + section["held_out"]) // section["chunk_size"]))]
+
+
+def tuned_data_params(wildcards):
+    """A case drawn from endstate.tuned.data_seed at the mesh and at the accurate mesh, and one chunk of it."""
+    section = config["endstate"]["tuned"]
+    first = int(wildcards.chunk) * section["chunk_size"]
+    last = min(first + section["chunk_size"], section["realizations"] + section["held_out"])
+    seeded = config | {"seed": section["data_seed"]}
+    fine = accurate_case_inputs(seeded, wildcards.case, config["montecarlo"]["fidelity"]["high_cell_size_m"])
+    return {"coarse": asdict(CaseInputs.from_config(seeded, wildcards.case)), "fine": asdict(fine),
             "indices": list(range(first, last)), "mpm": config["mpm"],
             "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}

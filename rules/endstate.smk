@@ -84,3 +84,71 @@ else:
             "../envs/rgns.yaml"
         script:
             "../workflow/scripts/endstate_card.py"
+
+
+# The end-state surrogate tuned to the accurate MPM: the multi-fidelity correction's control variate.
+if config["endstate"]["tuned"]["model"] == "shipped":
+
+    rule shipped_tuned_endstate:
+        """Take the tuned end-state surrogate shipped with the package (its card:
+        rgns/models/endstate_tuned_card.md), checked to serve this config's Monte Carlo cases."""
+        input:
+            model=os.path.join(SHIPPED_ENDSTATE, "endstate_tuned.pt"),
+            card=os.path.join(SHIPPED_ENDSTATE, "endstate_tuned_card.json"),
+        output:
+            model="results/model/endstate_tuned.pt",
+            card="results/model/endstate_tuned_card.json",
+        params:
+            config=lambda wildcards: {key: config[key] for key in ("domain", "mesh", "mpm")} | {
+                "sets": {case: config["sets"][case] for case in MC_CASES},
+                "montecarlo": {"cases": MC_CASES, "fidelity": {"high_cell_size_m": config["montecarlo"]["fidelity"]["high_cell_size_m"]}}},
+        log:
+            "logs/endstate/shipped_tuned.log",
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/shipped_tuned_endstate.py"
+
+else:
+
+    rule tuned_data:
+        """One chunk of a Monte Carlo case's tuning realizations (drawn from endstate.tuned.data_seed), run
+        by the embedded MPM at montecarlo.fidelity.high_cell_size_m as one batch, coarse-grained."""
+        output:
+            "results/endstate/tuned/{case}/chunk_{chunk}.h5",
+        params:
+            tuned_data_params,
+        log:
+            "logs/tuned_data/{case}/chunk_{chunk}.log",
+        benchmark:
+            "results/endstate/tuned/{case}/chunk_{chunk}.benchmark.tsv"
+        resources:
+            mem_mb=4000,
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/tuned_data.py"
+
+    rule tune_endstate:
+        """This run's end-state surrogate trained further on the tuning chunks; its card with the held-out
+        agreement before and after."""
+        input:
+            model="results/model/endstate.pt",
+            data=expand("results/endstate/tuned/{case}/chunk_{chunk}.h5", case=MC_CASES, chunk=tuned_chunk_ids()),
+        output:
+            model="results/model/endstate_tuned.pt",
+            curve="results/model/endstate_tuned_curve.png",
+            card="results/model/endstate_tuned_card.json",
+            markdown="results/model/endstate_tuned_card.md",
+        params:
+            config=lambda wildcards: config,
+            cases=MC_CASES,
+        log:
+            "logs/train/tune_endstate.log",
+        threads: config["endstate"]["threads"]
+        resources:
+            mem_mb=4000,
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/tune_endstate.py"

@@ -88,11 +88,54 @@ rule mc_paired_chunk:
         "../workflow/scripts/mc_chunk.py"
 
 
+rule mc_control_chunk:
+    """With montecarlo.fidelity.cheap tuned: the chunk's realizations by the end-state surrogate tuned to the
+    accurate MPM, the control variate of the correction (no gate: a poor control widens the intervals, it
+    cannot bias them)."""
+    input:
+        model=["results/model/endstate_tuned.pt"],
+        gate=[],
+    output:
+        "results/mc/{case}/control/chunk_{chunk}.csv",
+    params:
+        inputs=mc_case_params,
+        run=mc_control_run_params,
+        indices=mc_chunk_indices,
+    log:
+        "logs/mc_control_chunk/{case}/chunk_{chunk}.log",
+    benchmark:
+        "results/mc/{case}/control/chunk_{chunk}.benchmark.tsv"
+    threads: config["montecarlo"]["threads"]
+    resources:
+        mem_mb=2000,
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/mc_chunk.py"
+
+
+rule mc_control_collect:
+    """Concatenate a case's control chunk tables."""
+    input:
+        lambda wildcards: [f"results/mc/{wildcards.case}/control/chunk_{k}.csv" for k in mc_chunk_ids(wildcards.case)],
+    output:
+        "results/mc/{case}/control.csv",
+    params:
+        realizations=config["montecarlo"]["realizations"],
+        chunk_size=config["montecarlo"]["chunk_size"],
+    log:
+        "logs/mc_control_collect/{case}.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/mc_collect.py"
+
+
 checkpoint paired_plan:
     """With montecarlo.fidelity.target_half_width_m: how many realizations to pair, in whole chunks, from
     the pilot pairs' spread and correlation and the cheap Monte Carlo (rgns.multifidelity_outputs.plan_pairs)."""
     input:
-        realizations="results/mc/{case}/realizations.csv",
+        realizations=CHEAP_TABLE,
         pilot=mc_paired_pilot_chunks,
     output:
         "results/mc/{case}/paired_plan.json",
@@ -127,7 +170,8 @@ rule mc_paired_collect:
 rule multifidelity:
     """A case's exceedance curves, zoning and means corrected towards the accurate MPM (control variates)."""
     input:
-        realizations="results/mc/{case}/realizations.csv",
+        realizations=CHEAP_TABLE,
+        simulator="results/mc/{case}/realizations.csv",
         paired="results/mc/{case}/paired.csv",
         plan=mc_paired_plan,
     output:

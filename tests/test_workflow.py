@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from rgns.config import load_config, load_yaml
+from rgns.endstate.data import read_end_states
 from rgns.fields import read_field
 from rgns.geometry import read_scene
 from rgns.tables import read_csv
@@ -37,7 +38,12 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
                     "mc_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
                     "mc_mean_field": mc_cases, "mc_collect": mc_cases, "exceedance": mc_cases, "zoning": mc_cases,
                     "mc_paired_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
-                    "mc_paired_collect": mc_cases, "multifidelity": mc_cases, "report": 1, "hazard_map": 1}
+                    "mc_paired_collect": mc_cases, "multifidelity": mc_cases, "report": 1, "hazard_map": 1,
+                    # the correction's control variate: the shipped tuned surrogate on every realization
+                    "shipped_tuned_endstate": 1,
+                    "mc_control_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
+                    "mc_control_collect": mc_cases}
+    assert montecarlo["fidelity"]["cheap"] == "tuned"
     assert min(sizes) >= 16  # enough realizations per test case for R² to mean something
 
 
@@ -259,6 +265,41 @@ def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_
     assert "case1: the GNS failed the validation gate (runout R²" in result.stdout + result.stderr
     assert "case1: the GNS failed" in (copy_dir / "logs" / "mc_chunk" / "case1" / "chunk_000.log").read_text()
     assert (copy_dir / "results" / "validation" / "case1" / "pairs.csv").exists()
+
+
+def test_the_tuned_control_variate_is_made_and_corrects_the_monte_carlo(built, tmp_path):
+    """montecarlo.fidelity.cheap tuned with endstate.tuned.model train: the tuning runs at the accurate mesh
+    (drawn from endstate.tuned.data_seed, coarse-grained), the fine-tune and its card, the tuned model on
+    every Monte Carlo realization (its chunks timed), and the correction with it as cheap route; the
+    Monte Carlo's own runs and their map are not redone."""
+    workdir = tmp_path / "tuned"
+    shutil.copytree(built[0], workdir, symlinks=True)
+    config = copy.deepcopy(built[1])
+    config["endstate"] = {"model": "train", "realizations": 2, "held_out": 1, "chunk_size": 3, "widths": [4, 8],
+                          "steps": 10, "checkpoint_every": 10, "threads": 1,
+                          "tuned": {"model": "train", "realizations": 2, "held_out": 2, "chunk_size": 2, "steps": 5}}
+    config["montecarlo"]["fidelity"]["cheap"] = "tuned"
+    results = workdir / "results"
+    own = (results / "mc" / "case1" / "realizations.csv").stat().st_mtime_ns
+    result = snakemake(workdir, "--cores", "2", "hazard_map", config=write_config(tmp_path / "tuned.yaml", config))
+    assert result.returncode == 0, result.stderr
+    assert (results / "mc" / "case1" / "realizations.csv").stat().st_mtime_ns == own
+    tuned = read_end_states(sorted((results / "endstate" / "tuned" / "case1").glob("chunk_*.h5")))
+    assert [s.index for s in tuned] == [0, 1, 2, 3] and all(len(s.initial) == 120 for s in tuned)  # coarse lattice
+    card = json.loads((results / "model" / "endstate_tuned_card.json").read_text())
+    assert card["cases"] == ["case1"] and card["steps"] == 5 and len(card["agreement"]) == 6
+    assert card["serves"]["montecarlo.fidelity.high_cell_size_m"] == 0.5
+    control = read_csv(results / "mc" / "case1" / "control.csv")
+    assert list(control["index"]) == list(range(6)) and (control["simulator"] == "endstate").all()
+    record = json.loads((results / "report" / "case1" / "multifidelity.json").read_text())
+    assert record["cheap_route"] == "the end-state surrogate tuned to the accurate MPM"
+    assert record["means"]["runout_m"]["low_mean"] == pytest.approx(control["runout_m"].mean())
+    mc = read_csv(results / "mc" / "case1" / "realizations.csv")
+    assert record["simulator_means"]["runout_m"] == pytest.approx(mc["runout_m"].mean())
+    assert record["cost"]["high_s"] > record["cost"]["low_s"] > 0
+    page = (results / "report" / "report.html").read_text()
+    assert "by the correction&#x27;s cheap route (the end-state surrogate tuned" in page or \
+        "by the correction's cheap route (the end-state surrogate tuned" in page
 
 
 def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built, tmp_path):

@@ -9,6 +9,7 @@ from rgns.tables import read_csv
 log = log_to_file(snakemake.log[0])
 settings = snakemake.params[0]
 low, high = read_csv(snakemake.input.realizations), read_csv(snakemake.input.paired)
+simulator = read_csv(snakemake.input.simulator) if snakemake.input.simulator != snakemake.input.realizations else None
 benchmarks = {"low_benchmarks": settings["low_benchmarks"],  # the paired chunks: as many as hold its rows
               "high_benchmarks": [settings["high_benchmark_pattern"].format(chunk=k)
                                   for k in range(-(-len(high) // settings["chunk_size"]))]}
@@ -19,7 +20,8 @@ else:  # chunks made before their runs were timed
     cost = {"low_s": float("nan"), "high_s": float("nan")}
     log.warning("some chunks have no benchmark file: the cost of each route is not known")
 plan = json.loads(Path(snakemake.input.plan[0]).read_text()) if snakemake.input.plan else None
-record = write_multifidelity(low, high, settings, cost, dict(snakemake.output.items()), snakemake.wildcards.case, plan)
+record = write_multifidelity(low, high, settings, cost, dict(snakemake.output.items()), snakemake.wildcards.case, plan,
+                             simulator)
 runout = record["means"]["runout_m"]
 log.info("%s: mean R corrected %.3f m [%.3f, %.3f] from the cheap %.3f m (bias over %d pairs %+.3f m, "
          "correlation %.3f); %.2f s vs %.2f s per realization", snakemake.wildcards.case, runout["estimate"],
