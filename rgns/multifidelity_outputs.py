@@ -204,6 +204,8 @@ def write_multifidelity(low: pd.DataFrame, high: pd.DataFrame, settings: dict[st
     for key, curve in record["exceedance"].items():  # the Monte Carlo's own curve, what its map is drawn from
         values = finished[key].to_numpy(float)
         curve["simulator"] = [float(np.mean(values > d)) for d in curve["d_m"]]
+        for p, distances in curve["distances"].items():
+            distances["simulator"] = distance_at(np.array(curve["d_m"]), np.array(curve["simulator"]), float(p))
     if plan is not None:
         record["plan"] = plan
     Path(outputs["json"]).write_text(json.dumps(record, indent=1, default=float) + "\n")

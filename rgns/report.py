@@ -122,8 +122,9 @@ def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> 
                            "cheap route": m["low_mean"], "corrected": m["estimate"],
                            "lower": m["lower"], "upper": m["upper"], "bias on the pairs": m["bias"],
                            "correlation": m["correlation"]} for key, m in record["means"].items()])
-    distances = pd.DataFrame([{"metric": key, "probability": p, "cheap route (m)": d["uncorrected"],
-                               "corrected (m)": d["corrected"]}
+    distances = pd.DataFrame([{"metric": key, "probability": p,
+                               **({"Monte Carlo (m)": d["simulator"]} if own else {}),
+                               "cheap route (m)": d["uncorrected"], "corrected (m)": d["corrected"]}
                               for key, curve in record["exceedance"].items() for p, d in curve["distances"].items()])
     cost, allocation = record["cost"], record["allocation"]
     parts = [paragraph(_runout_line(case, record)[0]), table(means, 3), table(distances, 2),

@@ -62,6 +62,25 @@ def test_unfinished_realizations_leave_their_pairs(tmp_path):
     assert (tmp_path / "m.png").stat().st_size > 10_000
 
 
+def test_with_a_separate_control_the_monte_carlo_keeps_its_own_means_and_curves(tmp_path):
+    """montecarlo.fidelity.cheap tuned: the correction runs on the control's table; the record keeps the
+    Monte Carlo's own means, curves and distances beside it, and the estimate does not depend on them."""
+    rng = np.random.default_rng(4)
+    accurate = rng.gamma(4.0, 2.0, 100)
+    control, simulator = accurate - 0.5 + rng.normal(0, 0.2, 100), 0.8 * accurate
+    outputs = {"json": str(tmp_path / "m.json"), "figure": str(tmp_path / "m.png")}
+    record = write_multifidelity(table(control), table(accurate[:16]), SETTINGS, COST, outputs, "case1",
+                                 simulator=table(simulator))
+    alone = correct(table(control), table(accurate[:16]), SETTINGS, COST)
+    assert record["means"] == alone["means"] and not record["cheap_is_simulator"]
+    assert record["simulator_means"]["runout_m"] == pytest.approx(simulator.mean())
+    curve = record["exceedance"]["runout_m"]
+    assert curve["simulator"][0] == 1.0 and curve["distances"]["0.5"]["simulator"] == pytest.approx(
+        np.median(simulator), abs=0.5)
+    plain = write_multifidelity(table(control), table(accurate[:16]), SETTINGS, COST, outputs, "case1")
+    assert plain["cheap_is_simulator"] and plain["simulator_means"]["runout_m"] == pytest.approx(control.mean())
+
+
 def test_too_few_finished_pairs_is_a_clear_error():
     runout = np.linspace(1.0, 9.0, 12)
     with pytest.raises(MultiFidelityError, match="1 realizations finished at both fidelities"):

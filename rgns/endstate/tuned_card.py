@@ -72,6 +72,11 @@ def render_tuned_card(card: dict[str, Any]) -> str:
         f"(mean predictor {last['valid_mean_predictor_loss']:.4g})", "",
         "![learning curve](endstate_tuned_curve.png)", "",
         f"## Agreement with the held-out {cell} m runs (coarse-grained), before and after tuning", "",
+        "R, V and I measured on the model's lattice, for the model and for the accurate runs coarse-grained onto "
+        "it (what the model learns). Measured on the accurate runs' own points, as the paired runs of every "
+        "multi-fidelity report measure them, the fronts are sharper and R longer: that report's correlation and "
+        "bias on the pairs are the check against the accurate MPM itself (the correction removes any bias; the "
+        "correlation sets its gain).", "",
         markdown_table(pd.DataFrame(card["agreement"])).strip(), "",
         "## Config it was tuned with", "", "```json", json.dumps(card["config"], indent=2), "```", "",
     ]
