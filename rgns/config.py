@@ -144,7 +144,7 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
                     f"family under geometry.families (have: {', '.join(sorted(families))})"
                 )
     return errors + _montecarlo_errors(config) + _hazard_errors(config) + _shipped_errors(config) \
-        + _shipped_endstate_errors(config)
+        + _shipped_endstate_errors(config) + _shipped_tuned_errors(config)
 
 
 def _shipped_errors(config: dict[str, Any]) -> list[str]:
@@ -171,6 +171,21 @@ def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
         check_serves(read_card(MODELS, "endstate_card.json"), config)
     except ShippedModelError as error:
         return [f"config key 'endstate.model' = 'shipped': {error}"]
+    return []
+
+
+def _shipped_tuned_errors(config: dict[str, Any]) -> list[str]:
+    """With the shipped tuned end-state surrogate as the correction's control, its cases and keys must be this config's."""
+    from rgns.endstate.tuned_card import check_tuned_serves  # local: only needed here
+    from rgns.shipped import MODELS, ShippedModelError, read_card
+
+    fidelity = config["montecarlo"]["fidelity"]
+    if not fidelity["paired"] or fidelity["cheap"] != "tuned" or config["endstate"]["tuned"]["model"] != "shipped":
+        return []
+    try:
+        check_tuned_serves(read_card(MODELS, "endstate_tuned_card.json"), config)
+    except ShippedModelError as error:
+        return [f"config key 'montecarlo.fidelity.cheap' = 'tuned': {error}"]
     return []
 
 

@@ -74,6 +74,8 @@ BAD = [
     (("montecarlo", "fidelity", "paired"), 1, r"'montecarlo.fidelity.paired' = 1: 0 \(off\) or between 2 and montecarlo.realizations = 256"),
     (("montecarlo", "fidelity", "paired"), 257, r"'montecarlo.fidelity.paired' = 257: 0 \(off\) or between 2"),
     (("montecarlo", "fidelity", "high_cell_size_m"), 1.0, r"'montecarlo.fidelity.high_cell_size_m' = 1.0: must be finer than mesh.cell_size_m = 1.0"),
+    (("montecarlo", "cases"), ["case1", "case2"], r"'montecarlo.fidelity.cheap' = 'tuned': the shipped tuned end-state surrogate does not serve this config: montecarlo.cases has case2, it was tuned on case1 \(set endstate.tuned.model: train"),
+    (("montecarlo", "fidelity", "high_cell_size_m"), 0.25, r"'montecarlo.fidelity.cheap' = 'tuned': .*montecarlo.fidelity.high_cell_size_m is 0.25, the model was trained at 0.5"),
     (("hazard", "zoning_thresholds"), [0.9, 0.1, 0.5, 0.01], r"'hazard.zoning_thresholds' = \[0.9, 0.1, 0.5, 0.01\]: must be strictly decreasing"),
     (("hazard", "zoning_thresholds"), [0.9, 0.5, 0.1], r"'hazard.zoning_thresholds' = \[0.9, 0.5, 0.1\]"),
     (("metrics", "runout_percentile"), 120.0, r"'metrics.runout_percentile' = 120.0"),
