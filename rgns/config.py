@@ -6,6 +6,7 @@ sets to geometry families, a mesh that tiles the domain.
 """
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -14,6 +15,8 @@ import numpy as np
 import yaml
 
 from rgns.site import apply_site
+
+log = logging.getLogger(__name__)
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SCHEMA_PATH = REPO_ROOT / "config" / "schema.yaml"
@@ -64,7 +67,9 @@ def schema_errors(config: dict[str, Any], schema: dict[str, Any]) -> list[str]:
 def _ranges(config: dict[str, Any]) -> Iterator[tuple[str, Any]]:
     """Every value that may be a [min, max] range, with its key path."""
     for fam_name, family in config["geometry"]["families"].items():
-        for k, vertex in enumerate(family["vertices"]):
+        for name, value in family.get("params", {}).items():
+            yield f"geometry.families.{fam_name}.params.{name}", value
+        for k, vertex in enumerate(family.get("vertices", [])):
             for axis in ("x_m", "y_m"):
                 yield f"geometry.families.{fam_name}.vertices[{k}].{axis}", vertex[axis]
     for set_name, groups in config["sets"].items():
@@ -101,6 +106,9 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
             )
 
     for fam_name, family in config["geometry"]["families"].items():
+        if "generator" in family:
+            errors += _generator_errors(fam_name, family)
+            continue
         for k, vertex in enumerate(family["vertices"]):
             for axis, limit in (("x_m", length), ("y_m", height)):
                 low, high = as_range(vertex[axis])
@@ -147,6 +155,19 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
         + _shipped_endstate_errors(config) + _shipped_tuned_errors(config)
 
 
+def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
+    """A generated family's parameters: every one its kind needs, none it does not know."""
+    from rgns.slope_generator import REQUIRED  # local: only needed here
+
+    known = set(REQUIRED[family["generator"]])
+    given = set(family["params"])
+    errors = [f"config key 'geometry.families.{fam_name}.params': lacks {name!r}, which generator "
+              f"{family['generator']!r} needs" for name in sorted(known - given)]
+    return errors + [f"config key 'geometry.families.{fam_name}.params.{name}': generator "
+                     f"{family['generator']!r} has no such parameter (it has: {', '.join(sorted(known))})"
+                     for name in sorted(given - known)]
+
+
 def _shipped_errors(config: dict[str, Any]) -> list[str]:
     """With gns.model: shipped, the keys the shipped model is tied to must be its own (said before any job runs)."""
     from rgns.shipped import ShippedModelError, check_serves, read_card  # local: torch-free, but only needed here
@@ -162,15 +183,18 @@ def _shipped_errors(config: dict[str, Any]) -> list[str]:
 
 def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
     """With the shipped end-state surrogate as the Monte Carlo's simulator, the keys it is tied to must be its own."""
-    from rgns.endstate.card import check_serves  # local: only needed here
+    from rgns.endstate.card import check_serves, outside_ranges  # local: only needed here
     from rgns.shipped import MODELS, ShippedModelError, read_card
 
     if config["montecarlo"]["simulator"] != "endstate" or config["endstate"]["model"] != "shipped":
         return []
     try:
-        check_serves(read_card(MODELS, "endstate_card.json"), config)
+        card = read_card(MODELS, "endstate_card.json")
+        check_serves(card, config)
     except ShippedModelError as error:
         return [f"config key 'endstate.model' = 'shipped': {error}"]
+    for line in outside_ranges(card, config, config["montecarlo"]["cases"]):
+        log.warning(line)
     return []
 
 

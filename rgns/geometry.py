@@ -17,6 +17,7 @@ import numpy as np
 from matplotlib.path import Path as MplPath
 
 from rgns.seeds import realization_rng
+from rgns.slope_generator import generate_vertices
 
 WALL_TOLERANCE_M = 1e-9
 
@@ -94,8 +95,11 @@ def polygon_problems(
     return problems
 
 
-def sample_vertices(family: dict[str, Any], rng: np.random.Generator) -> np.ndarray:
-    """Draw every ranged coordinate of a family uniformly in [min, max]; fixed ones stay."""
+def sample_vertices(family: dict[str, Any], rng: np.random.Generator, family_name: str = "") -> np.ndarray:
+    """Draw every ranged coordinate of a family uniformly in [min, max]; fixed ones stay. A generated
+    family (``generator``, rgns.slope_generator) draws its parameters and builds its polygon."""
+    if "generator" in family:
+        return generate_vertices(family_name, family, rng)
     vertices = np.empty((len(family["vertices"]), 2))
     for k, vertex in enumerate(family["vertices"]):
         for axis, key in enumerate(("x_m", "y_m")):
@@ -157,7 +161,7 @@ def draw_polygon(
     """Draw a valid polygon of a family; returns it and the number of draws it took."""
     problems: list[str] = []
     for draw in range(1, max_draws + 1):
-        vertices = sample_vertices(family, rng)
+        vertices = sample_vertices(family, rng, family_name)
         problems = polygon_problems(
             vertices, domain["length_m"], domain["height_m"], runout_room_m, headroom=cell_size_m
         )

@@ -18,6 +18,7 @@ import numpy as np
 
 from rgns.fields import FIELD_KEYS, FieldGrid, friction_field
 from rgns.geometry import DRAW_KEYS, Scene, build_scene, seed_particles
+from rgns.slope_generator import generate_vertices, midpoint_family
 
 MEAN_FIELD = -1  # the index recorded for the mean-field realization
 FINISHED = ("ok", "screened")  # statuses of rows with metrics (screened: found stable, counted as no failure)
@@ -91,7 +92,9 @@ def _midpoint(value: float | list[float]) -> float:
 
 
 def mean_vertices(family: dict[str, Any]) -> np.ndarray:
-    """The family's mean polygon [K, 2]: every vertex range at its midpoint."""
+    """The family's mean polygon [K, 2]: every vertex range (or generator parameter) at its midpoint."""
+    if "generator" in family:
+        return generate_vertices("mean", midpoint_family(family), np.random.default_rng(0))
     return np.array([[_midpoint(v["x_m"]), _midpoint(v["y_m"])] for v in family["vertices"]])
 
 
