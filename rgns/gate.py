@@ -2,7 +2,9 @@
 end-state surrogate), judged by its agreement with fresh MPM runs of that case (config
 ``validation.acceptance``)?
 
-Per case and metric: R² at least ``r2_min`` where MPM has variance (R² is undefined otherwise), and
+Per case and metric: at least ``min_realizations`` finished pairs; the lower end of R²'s bootstrap
+interval (``validation.confidence``) at least ``r2_min`` where MPM has variance (R² is undefined
+otherwise), so that a point R² on a few pairs does not pass where the same R² on many would; and
 the mean signed error within ``relative_bias_max`` of the MPM mean; where the MPM mean is 0 (every
 realization stands) the GNS mean must be within one mesh cell (m, or m² for a volume) of it. The
 fraction of diverged rollouts must not exceed ``diverged_fraction_max``. A case that fails is
@@ -71,8 +73,12 @@ def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict
             failures.append(f"diverged fraction {diverged[case]:.2f} > {acceptance['diverged_fraction_max']:g}")
         for _, row in rows.iterrows():
             limits = acceptance["metrics"][row["metric"]]
-            if math.isfinite(row["r2"]) and row["r2"] < limits["r2_min"]:
-                failures.append(f"{row['metric']} R² {row['r2']:.3f} < {limits['r2_min']:g}")
+            if row["n"] < acceptance["min_realizations"]:
+                failures.append(f"{row['metric']}: {row['n']} finished pairs, fewer than the "
+                                f"{acceptance['min_realizations']} the gate needs (validation.acceptance.min_realizations)")
+            elif math.isfinite(row["r2"]) and not row["r2_low"] >= limits["r2_min"]:
+                failures.append(f"{row['metric']} R² {row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}]: "
+                                f"lower bound < {limits['r2_min']:g}")
             problem = _bias_failure(row, limits["relative_bias_max"], cell_size_m)
             if problem:
                 failures.append(problem)

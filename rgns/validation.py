@@ -31,6 +31,8 @@ class Agreement:
     metric: str
     n: int
     r2: float
+    r2_low: float  # bootstrap confidence interval of R² over realizations (NaN where R² is undefined)
+    r2_high: float
     nrmse: float
     bias: float  # mean(gns - mpm), in the metric's unit
     bias_low: float  # lower bound of the bootstrap confidence interval of the bias
@@ -62,6 +64,42 @@ def nrmse(mpm: np.ndarray, gns: np.ndarray) -> float:
     return float(np.sqrt(np.mean((gns - mpm) ** 2))) / value_range
 
 
+def _r2_along(mpm: np.ndarray, gns: np.ndarray, axis: int = -1) -> np.ndarray:
+    """R² of resampled pairs along ``axis`` (vectorised for scipy.stats.bootstrap); NaN where MPM is constant."""
+    ss_tot = np.sum((mpm - mpm.mean(axis=axis, keepdims=True)) ** 2, axis=axis)
+    ss_res = np.sum((gns - mpm) ** 2, axis=axis)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(ss_tot > 0, 1.0 - ss_res / ss_tot, np.nan)
+
+
+def _nrmse_along(mpm: np.ndarray, gns: np.ndarray, axis: int = -1) -> np.ndarray:
+    spread = np.ptp(mpm, axis=axis)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(spread > 0, np.sqrt(np.mean((gns - mpm) ** 2, axis=axis)) / spread, np.nan)
+
+
+PAIRED_STATISTICS = {"r2": _r2_along, "nrmse": _nrmse_along}
+
+
+def paired_interval(statistic: str, mpm: np.ndarray, gns: np.ndarray, bootstrap: int = 2000,
+                    confidence: float = 0.95, seed: int = 0) -> tuple[float, float]:
+    """Percentile-bootstrap interval of a paired statistic (``r2`` or ``nrmse``) over realizations,
+    resampling (MPM, surrogate) pairs together; resamples where it is undefined are left out. NaN
+    with fewer than 3 pairs or the statistic undefined on most resamples."""
+    mpm, gns = np.asarray(mpm, dtype=float), np.asarray(gns, dtype=float)
+    if mpm.size < 3:
+        return math.nan, math.nan
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, mpm.size, size=(bootstrap, mpm.size))
+    values = PAIRED_STATISTICS[statistic](mpm[pick], gns[pick])
+    values = values[np.isfinite(values)]
+    if values.size < bootstrap / 2:
+        return math.nan, math.nan
+    tail_pct = 50.0 * (1.0 - confidence)
+    low, high = np.percentile(values, [tail_pct, 100.0 - tail_pct])
+    return float(low), float(high)
+
+
 def bootstrap_mean_interval(values: np.ndarray, bootstrap: int, confidence: float,
                             seed: int) -> tuple[float, float]:
     """Percentile-bootstrap interval of the mean, resampling ``values`` with replacement."""
@@ -86,8 +124,11 @@ def agreement(mpm: np.ndarray, gns: np.ndarray, metric: str, bootstrap: int = 20
     bias = float(errors.mean()) if n else math.nan
     mpm_mean = float(mpm.mean()) if n else math.nan
     low, high = bootstrap_mean_interval(errors, bootstrap, confidence, seed)
+    r2 = r_squared(mpm, gns)
+    r2_low, r2_high = paired_interval("r2", mpm, gns, bootstrap, confidence, seed) if math.isfinite(r2) \
+        else (math.nan, math.nan)
     return Agreement(
-        metric=metric, n=n, r2=r_squared(mpm, gns), nrmse=nrmse(mpm, gns),
+        metric=metric, n=n, r2=r2, r2_low=r2_low, r2_high=r2_high, nrmse=nrmse(mpm, gns),
         bias=bias, bias_low=low, bias_high=high,
         relative_bias=bias / mpm_mean if n and mpm_mean != 0.0 else math.nan,
         mpm_mean=mpm_mean, gns_mean=float(gns.mean()) if n else math.nan,

@@ -13,7 +13,7 @@ from rgns.validation import case_agreement, validation_table
 ACCEPTANCE = {"metrics": {"runout": {"r2_min": 0.9, "relative_bias_max": 0.05},
                           "volume": {"r2_min": 0.9, "relative_bias_max": 0.1},
                           "influence": {"r2_min": 0.9, "relative_bias_max": 0.1}},
-              "diverged_fraction_max": 0.0, "on_failure": "fallback"}
+              "diverged_fraction_max": 0.0, "on_failure": "fallback", "min_realizations": 16}
 
 
 def _pairs(mpm: dict[str, np.ndarray], gns: dict[str, np.ndarray], status: list[str] | None = None) -> pd.DataFrame:
@@ -71,10 +71,40 @@ def test_on_failure_stop_raises_naming_case_and_metric(tmp_path):
     verdicts = _verdicts({"case1": _pairs(MPM, dict(MPM, runout_m=MPM["runout_m"] * 0.8))}, acceptance)
     path = tmp_path / "gate.json"
     write_verdicts(verdicts, path)
-    with pytest.raises(GateError, match=r"case1: the GNS failed the validation gate \(runout R² 0.582 < 0.9; runout \|relative bias\| 0.200"):
+    with pytest.raises(GateError, match=r"case1: the GNS failed the validation gate \(runout R² 0.582 \[[-0-9.]+, [-0-9.]+\]: lower bound < 0.9; "
+                       r"runout \|relative bias\| 0.200"):
         simulator_for(path, "case1")
     fallback = _verdicts({"case1": _pairs(MPM, dict(MPM, runout_m=MPM["runout_m"] * 0.8))})
     write_verdicts(fallback, path)
     assert simulator_for(path, "case1") == "mpm"
     with pytest.raises(GateError, match="no verdict for case9"):
         read_verdict(path, "case9")
+
+
+def _with_r2(mpm: np.ndarray, r2: float, rng: np.random.Generator) -> np.ndarray:
+    """Predictions whose R² against ``mpm`` is exactly ``r2`` (unbiased noise scaled to fit)."""
+    noise = rng.standard_normal(mpm.size)
+    noise -= noise.mean()
+    ss_tot = np.sum((mpm - mpm.mean()) ** 2)
+    return mpm + noise * np.sqrt((1 - r2) * ss_tot / np.sum(noise ** 2))
+
+
+@pytest.mark.parametrize("n, passes", [(16, False), (400, True)])
+def test_the_same_point_r2_fails_on_a_small_sample_and_passes_on_a_large_one(n, passes):
+    """R² 0.94 on every metric: on 16 pairs the interval reaches below 0.9, on 400 it does not."""
+    rng = np.random.default_rng(3)
+    mpm = {"runout_m": rng.uniform(3, 9, n), "volume_m2": rng.uniform(20, 50, n), "influence_m": rng.uniform(2, 6, n)}
+    model = {key: _with_r2(value, 0.94, rng) for key, value in mpm.items()}
+    agreements, summary = case_agreement(_pairs(mpm, model), "case1", bootstrap=2000)
+    assert [round(a.r2, 6) for a in agreements] == [0.94] * 3
+    verdict = judge(validation_table({"case1": agreements}), [summary], ACCEPTANCE, cell_size_m=1.0)["case1"]
+    assert verdict.passed is passes
+    if not passes:
+        assert all("lower bound < 0.9" in failure for failure in verdict.failures if "R²" in failure)
+
+
+def test_too_few_pairs_fail_whatever_their_r2():
+    few = {key: value[:8] for key, value in MPM.items()}
+    verdict = _verdicts({"case1": _pairs(few, few)})["case1"]
+    assert not verdict.passed
+    assert "8 finished pairs, fewer than the 16" in verdict.failures[0]

@@ -128,7 +128,7 @@ def test_validation_table_has_one_row_per_case_and_metric():
     agreements = {case: case_agreement(_pairs(6, seed), case, bootstrap=50)[0]
                   for seed, case in enumerate(["case1", "case2"])}
     table = validation_table(agreements)
-    assert list(table.columns) == ["case", "metric", "n", "r2", "nrmse", "bias", "bias_low", "bias_high",
+    assert list(table.columns) == ["case", "metric", "n", "r2", "r2_low", "r2_high", "nrmse", "bias", "bias_low", "bias_high",
                                    "relative_bias", "mpm_mean", "gns_mean"]
     assert list(zip(table["case"], table["metric"])) == [(c, m) for c in ["case1", "case2"] for m in METRICS]
     assert (table["n"] == 6).all()
