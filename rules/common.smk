@@ -284,6 +284,28 @@ def endstate_chunk_ids():
     return [f"{k:03d}" for k in range(-(-(section["realizations"] + section["held_out"]) // section["chunk_size"]))]
 
 
+ENDSTATE_SETS = config["endstate"]["sets"] or TEST_CASES
+ENDSTATE_VALIDATION_SETS = config["endstate"]["validation"]["sets"]
+# what training depends on: not the model choice, the validation or the tuning
+ENDSTATE_TRAINING = {key: value for key, value in config["endstate"].items() if key not in ("model", "validation", "tuned")}
+
+
+def endstate_validation_chunk_ids():
+    """Chunk ids of the validation realizations of each endstate.validation set."""
+    section = config["endstate"]["validation"]
+    return [f"{k:03d}" for k in range(-(-section["realizations"] // section["chunk_size"]))]
+
+
+def endstate_validation_params(wildcards):
+    """A validation set's inputs drawn from endstate.validation.data_seed, and the MPM run of one chunk of them."""
+    section = config["endstate"]["validation"]
+    first = int(wildcards.chunk) * section["chunk_size"]
+    last = min(first + section["chunk_size"], section["realizations"])
+    return {"inputs": asdict(CaseInputs.from_config(config | {"seed": section["data_seed"]}, wildcards.case)),
+            "indices": list(range(first, last)), "mpm": config["mpm"],
+            "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
+
+
 def endstate_data_params(wildcards):
     """A test case's inputs drawn from endstate.data_seed, and the MPM run of one chunk of them."""
     section = config["endstate"]

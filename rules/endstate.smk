@@ -44,14 +44,14 @@ else:
         """Train the end-state surrogate on every test case's training chunks (resumes from
         results/model/endstate_checkpoints after a kill)."""
         input:
-            expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=TEST_CASES, chunk=endstate_chunk_ids()),
+            expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=ENDSTATE_SETS, chunk=endstate_chunk_ids()),
         output:
             model="results/model/endstate.pt",
             history="results/model/endstate_history.csv",
             curve=report("results/model/endstate_curve.png", caption="../docs/captions/endstate_curve.rst", category="End-state surrogate"),
             evaluation="results/model/endstate_evaluation.json",
         params:
-            endstate=config["endstate"],
+            endstate=ENDSTATE_TRAINING,
             domain=config["domain"],
             mesh=config["mesh"],
             checkpoints="results/model/endstate_checkpoints",
@@ -65,19 +65,59 @@ else:
         script:
             "../workflow/scripts/train_endstate.py"
 
+    rule endstate_validation_data:
+        """One chunk of a validation set's realizations (drawn from endstate.validation.data_seed), run
+        by the embedded MPM as one batch; their first and last frames."""
+        output:
+            "results/endstate/validation/{case}/chunk_{chunk}.h5",
+        params:
+            endstate_validation_params,
+        log:
+            "logs/endstate_validation_data/{case}/chunk_{chunk}.log",
+        resources:
+            mem_mb=2000,
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/endstate_data.py"
+
+    rule endstate_ood:
+        """The trained end-state surrogate against the validation sets' MPM end states: R², NRMSE and
+        bias per set and metric with bootstrap intervals."""
+        input:
+            model="results/model/endstate.pt",
+            data=expand("results/endstate/validation/{case}/chunk_{chunk}.h5", case=ENDSTATE_VALIDATION_SETS,
+                        chunk=endstate_validation_chunk_ids()),
+        output:
+            table="results/model/endstate_ood.json",
+            markdown="results/model/endstate_ood.md",
+        params:
+            inputs=lambda wildcards: {case: asdict(CaseInputs.from_config(
+                config | {"seed": config["endstate"]["validation"]["data_seed"]}, case)) for case in ENDSTATE_VALIDATION_SETS},
+            metrics=config["metrics"],
+        log:
+            "logs/train/endstate_ood.log",
+        conda:
+            "../envs/rgns.yaml"
+        script:
+            "../workflow/scripts/endstate_ood.py"
+
     rule endstate_card:
         """The trained end-state surrogate's card: config, data fingerprint, steps, time, learning
-        curve and its validation table against fresh MPM runs of the test cases."""
+        curve, what it serves and its validation table: on the endstate.validation sets when there
+        are any, else against fresh MPM runs of the test cases."""
         input:
-            data=expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=TEST_CASES, chunk=endstate_chunk_ids()),
+            data=expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=ENDSTATE_SETS, chunk=endstate_chunk_ids()),
             history="results/model/endstate_history.csv",
-            validation="results/report/validation/table.md",
+            validation="results/model/endstate_ood.md" if ENDSTATE_VALIDATION_SETS else "results/report/validation/table.md",
         output:
             card="results/model/endstate_card.json",
             markdown="results/model/endstate_card.md",
         params:
             config=lambda wildcards: config,
-            cases=TEST_CASES,
+            cases=ENDSTATE_SETS,
+            title="Validation on slopes and soils it never saw" if ENDSTATE_VALIDATION_SETS else
+                "Validation against fresh MPM runs of the test cases",
         log:
             "logs/train/endstate_card.log",
         conda:

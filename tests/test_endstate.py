@@ -7,6 +7,7 @@ import pytest
 import torch
 
 import rgns.endstate.train as training
+from rgns.endstate.card import check_serves
 from rgns.endstate.data import EndState, EndStateDataError, read_end_states, write_end_states
 from rgns.endstate.lattice import Lattice, LatticeError
 from rgns.endstate.model import EndStateModel, EndStateModelError, Normalization, load_model
@@ -16,6 +17,7 @@ from rgns.metrics import MetricSettings, crest_x
 from rgns.montecarlo import MonteCarloError, RunSettings, run_realizations
 from rgns.pairing import pair_end_states
 from rgns.realizations import CaseInputs, draw_realization
+from rgns.shipped import ShippedModelError
 from rgns.trajectories import Trajectory
 
 LATTICE = Lattice.for_domain(20.0, 8.0, 1.0, 2)
@@ -178,3 +180,40 @@ def test_validation_pairs_the_end_state_with_the_mpm_run():
         assert row[f"{key}_gns"] == pytest.approx(row[f"{key}_mpm"], abs=1e-5)
     assert row["final_position_mse_m2"] < 1e-10
     assert np.isnan(paired.gns_energies[0, 1]).all() and np.isfinite(paired.gns_energies[0, [0, -1]]).all()
+
+
+def test_a_body_feature_model_answers_the_same_for_a_slope_in_two_domain_sizes():
+    """The same slope and soil in an 80 x 20 m and a 46 x 12 m domain: identical displacements from a
+    body-feature model (its image of the slope does not depend on the domain); a first,
+    domain-feature model sized to each domain answers differently."""
+    torch.manual_seed(0)
+    slope = np.array([[0.0, 0.0], [30.0, 0.0], [20.0, 9.0], [0.0, 9.0]])
+    initial, _ = seed_particles(slope, 1.0, 2)
+    friction = 30.0 + np.random.default_rng(1).standard_normal(len(initial))
+    norm = Normalization(30.0, 5.0, 1.0)
+    model = EndStateModel(Lattice.for_domain(80.0, 20.0, 1.0, 2, "body"), norm, (4, 8, 8)).eval()
+    served = {"serves": {}, "bounds": {"domain.length_m": 80.0, "domain.height_m": 20.0}}
+    for length, height in ((80.0, 20.0), (46.0, 12.0)):
+        check_serves(served, {"domain": {"length_m": length, "height_m": height}})
+    finals = [model.predict([initial], [friction])[0] for _ in range(2)]
+    np.testing.assert_array_equal(finals[0], finals[1])
+    sized = [EndStateModel(Lattice.for_domain(length, height, 1.0, 2, "domain"), norm, (4, 8, 8)).eval()
+             for length, height in ((80.0, 20.0), (46.0, 12.0))]
+    for other in sized[1:]:
+        other.load_state_dict(sized[0].state_dict())
+    domain_finals = [m.predict([initial], [friction])[0] for m in sized]
+    assert np.abs(domain_finals[0] - domain_finals[1]).max() > 1e-4
+    with pytest.raises(ShippedModelError, match=r"domain.length_m is 100.0, the model serves at most 80.0"):
+        check_serves(served, {"domain": {"length_m": 100.0, "height_m": 20.0}})
+
+
+def test_body_features_are_height_above_the_floor_and_depth_below_the_surface():
+    lattice = Lattice.for_domain(20.0, 8.0, 1.0, 2, "body")
+    initial, _ = seed_particles(SLOPE, 1.0, 2)
+    image = lattice.inputs(initial, np.full(len(initial), 30.0), 30.0, 5.0)
+    row, column = lattice.pixels(initial)
+    np.testing.assert_allclose(image[2, row, column] * 20.0, initial[:, 1])
+    top = {c: initial[column == c, 1].max() for c in np.unique(column)}
+    depth = np.array([top[c] - y + 0.25 for c, y in zip(column, initial[:, 1])])
+    np.testing.assert_allclose(image[3, row, column] * 10.0, depth, atol=1e-6)
+    assert image[3][image[0] == 0].max() == 0.0

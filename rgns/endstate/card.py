@@ -1,10 +1,13 @@
 """The end-state surrogate's card (rgns/models/endstate_card.{json,md}), what it serves, and its
 learning curve.
 
-The model is tied to the lattice it reads (domain and mesh), to the MPM it imitates (its material,
-gravity and run length) and to the random-field models it was trained on (the test cases' sets):
-a config that differs in the first two is refused with the keys named; the validation gate
-re-checks the last on every run.
+The model is tied to the lattice spacing it reads (the mesh), to the MPM it imitates (its material,
+gravity and run length) and to what it was trained on. A model with ``body`` position features
+(rgns.endstate.lattice) serves any domain up to the one it was trained in (``bounds``); a first,
+``domain``-feature model only its own. A config that differs in a tied key, or exceeds a bound, is
+refused with the key named. The slopes and soils it learned (``ranges``: generator parameters,
+field statistics, body heights) are stated; a Monte Carlo case outside them is not refused but
+named, and the validation gate decides on it as on every case.
 """
 from __future__ import annotations
 
@@ -12,21 +15,75 @@ import json
 from pathlib import Path
 from typing import Any
 
-from rgns.shipped import data_fingerprint, refuse_unserved, tied_values
+import numpy as np
 
-SERVED_KEYS = (("domain", "length_m"), ("domain", "height_m"), ("mesh", "cell_size_m"),
-               ("mesh", "particles_per_cell"), ("mpm", "duration_s"), ("mpm", "gravity_m_s2"),
-               ("mpm", "density_kg_m3"), ("mpm", "cohesion_pa"), ("mpm", "youngs_modulus_pa"), ("mpm", "floor_friction"))
+from rgns.shipped import ShippedModelError, data_fingerprint, refuse_unserved, tied_values
+
+DOMAIN_KEYS = (("domain", "length_m"), ("domain", "height_m"))
+TIED_KEYS = (("mesh", "cell_size_m"), ("mesh", "particles_per_cell"), ("mpm", "duration_s"), ("mpm", "gravity_m_s2"),
+             ("mpm", "density_kg_m3"), ("mpm", "cohesion_pa"), ("mpm", "youngs_modulus_pa"), ("mpm", "floor_friction"))
+SERVED_KEYS = DOMAIN_KEYS + TIED_KEYS
+FIELD_RANGE_KEYS = ("friction_mean_deg", "friction_std_deg", "correlation_length_x_m", "correlation_length_y_m")
 
 
-def served(config: dict[str, Any]) -> dict[str, Any]:
-    """The values of the keys the model is tied to."""
-    return tied_values(config, SERVED_KEYS)
+def served(config: dict[str, Any], features: str = "domain") -> dict[str, Any]:
+    """The values of the keys the model is tied to (with body features, the domain is a bound instead)."""
+    return tied_values(config, TIED_KEYS if features == "body" else SERVED_KEYS)
 
 
 def check_serves(card: dict[str, Any], config: dict[str, Any]) -> None:
-    """Raise naming every tied key whose value differs between the card and ``config``."""
+    """Raise naming every tied key whose value differs between the card and ``config``, and every
+    domain extent beyond the card's bounds."""
     refuse_unserved(card["serves"], config, "end-state surrogate", "endstate.model")
+    beyond = [f"{key} is {value!r}, the model serves at most {card['bounds'][key]!r}"
+              for key, value in tied_values(config, DOMAIN_KEYS).items()
+              if key in card.get("bounds", {}) and value > card["bounds"][key]]
+    if beyond:
+        raise ShippedModelError("the shipped end-state surrogate does not serve this config: " + "; ".join(beyond)
+                                + " (a smaller domain that still holds the slope and its runout, or endstate.model: "
+                                "train)")
+
+
+def training_ranges(config: dict[str, Any], cases: list[str]) -> dict[str, Any]:
+    """What the training sets drew: each field statistic's [min, max] over the sets, and each
+    family's generator parameters or vertices."""
+    groups = [group for case in cases for group in config["sets"][case]]
+    field = {}
+    for key in FIELD_RANGE_KEYS:
+        values = [v for group in groups for v in (group[key] if isinstance(group[key], list) else [group[key]])]
+        field[key] = [float(min(values)), float(max(values))]
+    families = {group["family"]: config["geometry"]["families"][group["family"]] for group in groups}
+    return {"field": field, "families": families}
+
+
+def body_height_m(vertices: np.ndarray) -> float:
+    """A polygon's height above the floor."""
+    return float(np.asarray(vertices)[:, 1].max())
+
+
+def outside_ranges(card: dict[str, Any], config: dict[str, Any], cases: list[str]) -> list[str]:
+    """One line per Monte Carlo case's field statistic or body height outside the card's ranges."""
+    from rgns.realizations import mean_vertices  # local: only needed here
+
+    ranges = card.get("ranges")
+    if not ranges:
+        return []
+    lines = []
+    for case in cases:
+        for g, group in enumerate(config["sets"][case]):
+            for key in FIELD_RANGE_KEYS:
+                low, high = ranges["field"][key]
+                values = group[key] if isinstance(group[key], list) else [group[key]]
+                if min(values) < low or max(values) > high:
+                    lines.append(f"config key 'sets.{case}[{g}].{key}' = {group[key]!r} is outside the end-state "
+                                 f"surrogate's training range [{low:g}, {high:g}]: its validation gate decides")
+            height = body_height_m(mean_vertices(config["geometry"]["families"][group["family"]]))
+            low, high = card["ranges"]["body_height_m"]
+            if not low <= height <= high:
+                lines.append(f"config key 'sets.{case}[{g}].family' = {group['family']!r}: a body {height:.1f} m high "
+                             f"is outside the end-state surrogate's training range [{low:g}, {high:g}] m: its "
+                             "validation gate decides")
+    return lines
 
 
 def evaluation_of(history: list[dict[str, Any]], shipped: bool = False) -> dict[str, Any]:
@@ -41,36 +98,72 @@ def make_card(config: dict[str, Any], data_paths: list[str], history: list[dict[
     """The card of a trained model: what it was trained on and how, and what it serves."""
     section = config["endstate"]
     evaluation = evaluation_of(history, shipped=True)
-    return {"config": config, "cases": list(cases), "data_fingerprint": data_fingerprint(data_paths),
+    features = section.get("features", "domain")
+    card = {"config": config, "cases": list(cases), "data_fingerprint": data_fingerprint(data_paths),
             "realizations_per_case": section["realizations"], "held_out_per_case": section["held_out"],
             "steps": evaluation["steps"], "wall_s": evaluation["wall_s"], "evaluation": evaluation,
-            "serves": served(config)}
+            "features": features, "serves": served(config, features)}
+    if features == "body":
+        card["bounds"] = tied_values(config, DOMAIN_KEYS)
+        card["ranges"] = training_ranges(config, cases) | {"body_height_m": body_heights(config, cases, data_paths)}
+    return card
 
 
-def render_card(card: dict[str, Any], validation_markdown: str) -> str:
-    """The card as Markdown, with the validation table against fresh MPM runs of the test cases."""
+def body_heights(config: dict[str, Any], cases: list[str], data_paths: list[str]) -> list[float]:
+    """The lowest and highest body of the training data (top of the material points + half a spacing)."""
+    from rgns.endstate.data import read_end_states  # local: h5py only when making a card
+
+    spacing = config["mesh"]["cell_size_m"] / config["mesh"]["particles_per_cell"]
+    tops = [float(state.initial[:, 1].max()) + spacing / 2 for state in read_end_states(data_paths)]
+    return [min(tops), max(tops)]
+
+
+def _serves_lines(card: dict[str, Any]) -> list[str]:
+    """The card's "What it serves" section."""
+    tied = [f"* `{key}`: {value}" for key, value in card["serves"].items()]
+    if "bounds" not in card:
+        groups = {case: card["config"]["sets"][case] for case in card["cases"]}
+        return ["Configs whose keys below equal these values; `rgns.endstate.card.check_serves` refuses any other, "
+                "naming the key. It learned the random-field models of these test cases (family and field "
+                "statistics); the validation gate re-checks it against fresh MPM runs on every run.", "", *tied,
+                *(f"* `{case}`: {json.dumps(group)}" for case, group in groups.items())]
+    ranges = card["ranges"]
+    return [
+        "Refused, naming the key (`rgns.endstate.card.check_serves`): a config whose keys below differ, or a "
+        "domain beyond the bounds. Any domain up to the bounds is served: the model reads positions relative to "
+        "the floor and the ground surface, and a slope's image does not depend on the domain around it.", "",
+        *tied, *(f"* `{key}` ≤ {value}" for key, value in card["bounds"].items()), "",
+        "Learned, and stated here (`rgns.endstate.card.outside_ranges` names a Monte Carlo case outside them; its "
+        "validation gate decides, as for every case):", "",
+        *(f"* `{key}`: {low:g} – {high:g}" for key, (low, high) in ranges["field"].items()),
+        f"* body height above the floor: {ranges['body_height_m'][0]:.1f} – {ranges['body_height_m'][1]:.1f} m",
+        "* geometry families:", "",
+        "| family | kind | parameters or vertices |", "| --- | --- | --- |",
+        *(f"| {name} | {family.get('generator', 'polygon')} | "
+          f"{json.dumps(family.get('params', family.get('vertices')))} |" for name, family in ranges["families"].items()),
+    ]
+
+
+def render_card(card: dict[str, Any], validation_markdown: str, validation_title: str =
+                "Validation against fresh MPM runs of the test cases") -> str:
+    """The card as Markdown, with a validation table against fresh MPM runs."""
     last = card["evaluation"]
-    groups = {case: card["config"]["sets"][case] for case in card["cases"]}
+    per = "set" if "bounds" in card else "test case"
     lines = [
         "# The shipped end-state surrogate: model card", "",
-        "Produced by the pipeline: `snakemake --cores 2 --configfile config/pretrain_endstate.yaml --directory "
-        "work/pretrain_endstate pretrain_endstate` (README, \"The end-state surrogate\").", "",
-        "## What it serves", "",
-        "Configs whose keys below equal these values; `rgns.endstate.card.check_serves` refuses any other, naming "
-        "the key. It learned the random-field models of these test cases (family and field statistics); the "
-        "validation gate re-checks it against fresh MPM runs on every run.", "",
-        *(f"* `{key}`: {value}" for key, value in card["serves"].items()),
-        *(f"* `{case}`: {json.dumps(group)}" for case, group in groups.items()), "",
+        "Produced by the pipeline: `snakemake --cores 2 --configfile config/pretrain_general.yaml --directory "
+        "work/pretrain_general pretrain_endstate` (docs: \"The end-state surrogate\").", "",
+        "## What it serves", "", *_serves_lines(card), "",
         "## Training", "",
-        f"* data: {card['realizations_per_case']} realizations per test case drawn from seed "
+        f"* data: {card['realizations_per_case']} realizations per {per} ({len(card['cases'])} sets) drawn from seed "
         f"{card['config']['endstate']['data_seed']} and run by the embedded MPM, plus {card['held_out_per_case']} "
-        f"held out per case; SHA-256 `{card['data_fingerprint'][:16]}…`",
+        f"held out per {per}; SHA-256 `{card['data_fingerprint'][:16]}…`",
         f"* {card['steps']} steps in {card['wall_s'] / 60:.1f} min ({card['config']['endstate']['threads']} CPU "
         "threads); the last iterate is kept (one-cycle learning rate)",
         f"* held-out loss at the end {last['valid_loss']:.4g} against the mean predictor's "
         f"{last['valid_mean_predictor_loss']:.4g} ({last['valid_loss'] / last['valid_mean_predictor_loss']:.4f} of it)",
         "", "![learning curve](endstate_curve.png)", "",
-        "## Validation against fresh MPM runs of the test cases", "", validation_markdown.strip(), "",
+        f"## {validation_title}", "", validation_markdown.strip(), "",
         "## Config it was trained with", "", "```json", json.dumps(card["config"], indent=2), "```", "",
     ]
     return "\n".join(lines)

@@ -2,10 +2,17 @@
 slope and write one displacement per point.
 
 Points are seeded at ((k + ½)/n) of each MPM cell (rgns.geometry.seed_particles), so at the start
-of a run every point owns one pixel of a lattice of spacing cell/n over the domain: an image of
-``rows`` × ``columns`` pixels. Channels in: occupancy, normalised friction angle (0 off the soil),
-x / domain length, y / domain height (the wall and the floor are not where convolutions expect
-nothing). Channels out: the displacement (x, y) of the point in each pixel, divided by a scale.
+of a run every point owns one pixel of a lattice of spacing cell/n anchored at the left wall and
+the floor: an image of ``rows`` × ``columns`` pixels. A domain shorter or lower than the model's
+fits in its image (the pixels beyond stay empty), so the image of a slope does not depend on the
+domain around it. Channels in: occupancy, normalised friction angle (0 off the soil), then the
+position features, either
+
+* ``body`` (geometry-general models): height above the floor / 20 m, and depth below the ground
+  surface of the point's column / 10 m (0 off the soil) — nothing tied to the domain's extent;
+* ``domain`` (the first models, trained on the test cases): x / image length, y / image height.
+
+Channels out: the displacement (x, y) of the point in each pixel, divided by a scale.
 """
 from __future__ import annotations
 
@@ -14,6 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 INPUT_CHANNELS = 4
+FEATURES = ("body", "domain")
+HEIGHT_SCALE_M = 20.0
+DEPTH_SCALE_M = 10.0
 
 
 class LatticeError(ValueError):
@@ -27,11 +37,23 @@ class Lattice:
     spacing_m: float
     columns: int
     rows: int
+    features: str = "domain"  # the position channels: "body" or "domain" (files saved before features lack it)
 
     @classmethod
-    def for_domain(cls, length_m: float, height_m: float, cell_size_m: float, particles_per_cell: int) -> "Lattice":
+    def for_domain(cls, length_m: float, height_m: float, cell_size_m: float, particles_per_cell: int,
+                   features: str = "body") -> "Lattice":
+        if features not in FEATURES:
+            raise LatticeError(f"endstate.features = {features!r}: expected one of {FEATURES}")
         spacing = cell_size_m / particles_per_cell
-        return cls(spacing, int(round(length_m / spacing)), int(round(height_m / spacing)))
+        return cls(spacing, int(round(length_m / spacing)), int(round(height_m / spacing)), features)
+
+    @property
+    def length_m(self) -> float:
+        return self.columns * self.spacing_m
+
+    @property
+    def height_m(self) -> float:
+        return self.rows * self.spacing_m
 
     def pixels(self, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(row, column) of each initial point [N, 2], checked to be one point per pixel inside the image."""
@@ -56,8 +78,14 @@ class Lattice:
         image = np.zeros((INPUT_CHANNELS, self.rows, self.columns), np.float32)
         image[0, row, column] = 1.0
         image[1, row, column] = (np.asarray(friction_deg) - friction_center) / friction_scale
-        image[2] = (np.arange(self.columns) + 0.5)[None, :] / self.columns
-        image[3] = (np.arange(self.rows) + 0.5)[:, None] / self.rows
+        if self.features == "domain":
+            image[2] = (np.arange(self.columns) + 0.5)[None, :] / self.columns
+            image[3] = (np.arange(self.rows) + 0.5)[:, None] / self.rows
+            return image
+        image[2] = ((np.arange(self.rows) + 0.5) * self.spacing_m / HEIGHT_SCALE_M)[:, None]
+        top = np.full(self.columns, -1)
+        np.maximum.at(top, column, row)
+        image[3, row, column] = (top[column] - row + 0.5) * self.spacing_m / DEPTH_SCALE_M
         return image
 
     def targets(self, initial: np.ndarray, final: np.ndarray, scale_m: float) -> np.ndarray:

@@ -17,7 +17,7 @@ states = read_end_states(snakemake.input)
 training = [s for s in states if s.index < section["realizations"]]
 held_out = [s for s in states if s.index >= section["realizations"]]
 lattice = Lattice.for_domain(params.domain["length_m"], params.domain["height_m"], params.mesh["cell_size_m"],
-                             params.mesh["particles_per_cell"])
+                             params.mesh["particles_per_cell"], section["features"])
 log.info("%d training and %d held-out realizations", len(training), len(held_out))
 model, history = train(training, held_out, lattice, settings, params.checkpoints)
 model.save(snakemake.output.model, {"history": history, "settings": settings.__dict__})

@@ -1,0 +1,104 @@
+"""The end-state surrogate on slopes and soils it was never trained on, against the 1 m MPM.
+
+    snakemake --cores 2 --configfile config/pretrain_general.yaml --directory work/pretrain_general \
+        --until endstate_validation_data
+    python benchmarks/ood_surrogate.py --compare previous_endstate.pt
+
+The first command runs the MPM end states of config/pretrain_general.yaml's endstate.validation
+sets (three geometry families no training set drew, a field model outside every training draw,
+the four test cases; 64 realizations each from a seed no development choice touched), as the
+pipeline's rule endstate_ood does before carding a model. This script runs the model on the
+same slopes and writes, per set and metric, R², NRMSE, bias and relative bias with bootstrap 95 %
+intervals over realizations, and the failed/stood confusion (``--output``.{json,md}); with
+``--compare`` a second model (e.g. the previous shipped one) on the same slopes. It also times the
+model and the MPM per realization, one thread each, side by side.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import pandas as pd
+import torch
+
+from rgns.config import load_config
+from rgns.endstate.data import read_end_states, simulate_end_states
+from rgns.endstate.evaluate import agreement_rows, markdown_table, paired_metrics
+from rgns.endstate.model import load_model
+from rgns.metrics import MetricSettings
+from rgns.realizations import CaseInputs
+from rgns.trajectories import frame_count
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def evaluate(model_path: str, config: dict, data: Path, sets: list[str], realizations: int) -> pd.DataFrame:
+    """The agreement rows of a model on every set's end states (the first ``realizations`` of each)."""
+    model = load_model(model_path)
+    metrics = MetricSettings(**config["metrics"])
+    seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
+    rows = []
+    for name in sets:
+        states = [s for s in read_end_states(sorted((data / name).glob("chunk_*.h5"))) if s.index < realizations]
+        pairs = paired_metrics(model, states, CaseInputs.from_config(seeded, name), metrics)
+        rows += agreement_rows(pairs)
+        print(f"{name}: {len(pairs)} realizations", flush=True)
+    return pd.DataFrame(rows)
+
+
+def cost_per_realization(model_path: str, config: dict, case: str, count: int) -> dict[str, float]:
+    """Seconds per realization on one thread: the MPM's run and the model's prediction, same slopes."""
+    torch.set_num_threads(1)
+    seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
+    inputs = CaseInputs.from_config(seeded, case)
+    began = time.perf_counter()
+    states, _ = simulate_end_states(inputs, list(range(count)), config["mpm"],
+                                    frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"]))
+    mpm_s = (time.perf_counter() - began) / count
+    model = load_model(model_path)
+    model.predict([states[0].initial], [states[0].friction_deg])  # warm-up
+    began = time.perf_counter()
+    model.predict([s.initial for s in states], [s.friction_deg for s in states])
+    model_s = (time.perf_counter() - began) / len(states)
+    return {"case": case, "realizations": count, "mpm_s": mpm_s, "model_s": model_s, "ratio": mpm_s / model_s}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--config", default=str(REPO / "config" / "pretrain_general.yaml"))
+    parser.add_argument("--data", default=str(REPO / "work" / "pretrain_general" / "results" / "endstate" / "validation"))
+    parser.add_argument("--model", default=str(REPO / "rgns" / "models" / "endstate.pt"))
+    parser.add_argument("--compare", help="a second model file, evaluated on the same slopes")
+    parser.add_argument("--sets", nargs="+", help="sets of the config (default: all)")
+    parser.add_argument("--realizations", type=int, default=64)
+    parser.add_argument("--time-realizations", type=int, default=8, help="case-1 realizations timed (0: none)")
+    parser.add_argument("--output", default=str(REPO / "benchmarks" / "results" / "ood_surrogate"))
+    args = parser.parse_args()
+    config = load_config(args.config)
+    sets = args.sets or config["endstate"]["validation"]["sets"]
+    result = {"command": "python benchmarks/ood_surrogate.py " + " ".join(
+        f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items() if v is not None and k not in ("output",)),
+        "config": args.config, "data_seed": config["endstate"]["validation"]["data_seed"]}
+    tables = {"model": evaluate(args.model, config, Path(args.data), sets, args.realizations)}
+    if args.compare:
+        tables["compare"] = evaluate(args.compare, config, Path(args.data), sets, args.realizations)
+    result |= {name: table.to_dict("records") for name, table in tables.items()}
+    if args.time_realizations:
+        result["cost"] = cost_per_realization(args.model, config, "case1", args.time_realizations)
+    Path(args.output + ".json").write_text(json.dumps(result, indent=2) + "\n")
+    lines = [f"# End-state surrogate out of distribution (seed {result['data_seed']})", "",
+             f"`{result['command']}`", "", f"## {args.model}", "", markdown_table(tables["model"])]
+    if args.compare:
+        lines += [f"## {args.compare}", "", markdown_table(tables["compare"])]
+    if "cost" in result:
+        cost = result["cost"]
+        lines += [f"Cost per realization, one thread, {cost['realizations']} case-1 realizations: MPM "
+                  f"{cost['mpm_s']:.2f} s, model {cost['model_s'] * 1000:.1f} ms ({cost['ratio']:.0f}× cheaper).", ""]
+    Path(args.output + ".md").write_text("\n".join(lines))
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
