@@ -22,7 +22,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 
 from rgns.hazard import ZONE_LEVELS, clopper_pearson  # noqa: E402
 from rgns.hazard_plots import ZONE_COLOURS  # noqa: E402
-from rgns.site_section import Section, cumulative_length  # noqa: E402
+from rgns.site_section import Section, cumulative_length, site_file  # noqa: E402
 from rgns.tables import write_csv  # noqa: E402
 
 LOCAL_FRAME = ("local: x is the chainage along the section (m) from its first point, y is 0; the section "
@@ -162,5 +162,5 @@ def write_site_gis(table: pd.DataFrame, zoning: dict[str, Any], section: Section
     write_csv(exceedance_by_chainage(table, section, settings["chainage_from_m"], settings["domain_length_m"],
                                      settings["resolution_m"], settings["confidence"]), outputs["exceedance"])
     if "map" in outputs:
-        plot_map_view(settings["section"]["dem"], section, features, zoning["levels"], settings["name"], outputs["map"])
+        plot_map_view(site_file(settings["section"]["dem"]), section, features, zoning["levels"], settings["name"], outputs["map"])
     return features

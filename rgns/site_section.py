@@ -148,5 +148,16 @@ def read_section(section: dict, spacing_m: float) -> Section:
         raise SiteError(f"config key 'site.section' gives {', '.join(given) or 'nothing'}: give either csv, or dem "
                         "and line")
     if section.get("csv"):
-        return read_csv_section(section["csv"], spacing_m)
-    return sample_dem(section["dem"], np.asarray(section["line"], dtype=float), section.get("crs"), spacing_m)
+        return read_csv_section(site_file(section["csv"]), spacing_m)
+    return sample_dem(site_file(section["dem"]), np.asarray(section["line"], dtype=float), section.get("crs"),
+                      spacing_m)
+
+
+def site_file(path: str) -> str:
+    """A site file as given, or, where a relative path is not found from the working directory (a run
+    with ``--directory``), from the repository root, where the example sites live."""
+    given = Path(path)
+    if given.is_absolute() or given.exists():
+        return path
+    from_repo = Path(__file__).resolve().parent.parent / given
+    return str(from_repo) if from_repo.exists() else path

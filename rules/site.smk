@@ -1,4 +1,6 @@
 # A real site's GIS files (config site): zones along the section line, exceedance per chainage, map view.
+from rgns.site_section import site_file
+
 SITE = config.get("site")
 # the GIS files of the site's Monte Carlo case (a map view only where a DEM was given)
 SITE_FILES = (["zones.geojson", "exceedance.csv"] + (["map.png"] if SITE["section"].get("dem") else [])
@@ -7,7 +9,7 @@ SITE_FILES = (["zones.geojson", "exceedance.csv"] + (["map.png"] if SITE["sectio
 
 def site_source(wildcards):
     """The file the site's ground profile is read from."""
-    return SITE["section"].get("csv") or SITE["section"]["dem"]
+    return site_file(SITE["section"].get("csv") or SITE["section"]["dem"])
 
 
 def site_gis_params(wildcards):
