@@ -39,11 +39,13 @@ class Verdict:
     simulator: str = "gns"  # what the Monte Carlo of this case runs: gns, or mpm after a fallback
 
     surrogate: str = "gns"  # the learned simulator judged: gns, or endstate (the end-state surrogate)
+    evidence: list[str] = field(default_factory=list)  # per metric: R² with its interval, on how many pairs
 
     def sentence(self) -> str:
         name = SURROGATE_NAMES.get(self.surrogate, self.surrogate)
         if self.passed:
-            return f"{self.case}: the {name} passed the validation gate; the Monte Carlo uses it"
+            on = f" ({'; '.join(self.evidence)})" if self.evidence else ""
+            return f"{self.case}: the {name} passed the validation gate{on}; the Monte Carlo uses it"
         then = "the Monte Carlo runs the MPM instead" if self.simulator == "mpm" else "the Monte Carlo stops"
         return f"{self.case}: the {name} failed the validation gate ({'; '.join(self.failures)}): {then}"
 
@@ -71,8 +73,12 @@ def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict
         failures = []
         if diverged.get(case, 0.0) > acceptance["diverged_fraction_max"]:
             failures.append(f"diverged fraction {diverged[case]:.2f} > {acceptance['diverged_fraction_max']:g}")
+        evidence = []
         for _, row in rows.iterrows():
             limits = acceptance["metrics"][row["metric"]]
+            if math.isfinite(row["r2"]):
+                evidence.append(f"{row['metric']} R² {row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}] "
+                                f"on {row['n']}")
             if row["n"] < acceptance["min_realizations"]:
                 failures.append(f"{row['metric']}: {row['n']} finished pairs, fewer than the "
                                 f"{acceptance['min_realizations']} the gate needs (validation.acceptance.min_realizations)")
@@ -84,7 +90,7 @@ def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict
                 failures.append(problem)
         passed = not failures
         simulator = surrogate if passed or acceptance["on_failure"] == STOP else "mpm"
-        verdicts[str(case)] = Verdict(str(case), passed, failures, simulator, surrogate)
+        verdicts[str(case)] = Verdict(str(case), passed, failures, simulator, surrogate, evidence)
     return verdicts
 
 

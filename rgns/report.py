@@ -176,8 +176,10 @@ def gate_section(report: Report, gate: dict[str, dict[str, Any]], cases: list[st
         if verdict is None:
             lines.append(paragraph(f"{case}: the Monte Carlo ran MPM as configured; no surrogate was used."))
         elif verdict["passed"]:
+            evidence = verdict.get("evidence") or []
+            on = f" (the lower end of each R² interval at least the limit: {'; '.join(evidence)})" if evidence else ""
             lines.append(paragraph(f"{case}: the {name} passed the validation gate against fresh MPM runs of this "
-                                   "case; the Monte Carlo below is drawn from it."))
+                                   f"case{on}; the Monte Carlo below is drawn from it."))
         else:
             then = ("the Monte Carlo below was run by MPM instead (on_failure: fallback), so it does not rest "
                     f"on the {name}" if verdict["simulator"] == "mpm" else "the Monte Carlo was stopped")
