@@ -169,10 +169,11 @@ def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
 
 
 def _shipped_errors(config: dict[str, Any]) -> list[str]:
-    """With gns.model: shipped, the keys the shipped model is tied to must be its own (said before any job runs)."""
+    """With gns.model: shipped and the GNS in use (the Monte Carlo's simulator, or the one validated beside an MPM
+    Monte Carlo), the keys the shipped model is tied to must be its own (said before any job runs)."""
     from rgns.shipped import ShippedModelError, check_serves, read_card  # local: torch-free, but only needed here
 
-    if config["gns"]["model"] != "shipped":
+    if config["gns"]["model"] != "shipped" or config["montecarlo"]["simulator"] == "endstate":
         return []
     try:
         check_serves(read_card(), config)

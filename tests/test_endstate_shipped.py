@@ -36,8 +36,15 @@ def test_the_shipped_model_serves_the_default_config_and_refuses_another_scale()
     card = read_card(MODELS, "endstate_card.json")
     check_serves(card, DEFAULT)
     paper = load_config(REPO / "config" / "paper.yaml")
-    with pytest.raises(ShippedModelError, match=r"domain.length_m is 240.0, the model was trained at 80.0"):
+    with pytest.raises(ShippedModelError, match=r"domain.length_m is 240.0, the model serves at most 80.0"):
         check_serves(card, paper)
+    coarse = copy.deepcopy(DEFAULT)
+    coarse["mesh"]["cell_size_m"] = 2.0
+    with pytest.raises(ShippedModelError, match=r"mesh.cell_size_m is 2.0, the model was trained at 1.0"):
+        check_serves(card, coarse)
+    site = load_config(REPO / "config" / "site.yaml")
+    assert site["domain"] == {"length_m": 50.0, "height_m": 14.0}
+    check_serves(card, site)
 
 
 def test_the_shipped_model_agrees_with_fresh_mpm_runs_of_case_1(shipped):

@@ -332,5 +332,13 @@ def test_a_derived_domain_the_shipped_model_does_not_serve_is_refused_before_any
     del config["domain"]
     config["sets"], config["geometry"]["families"] = {}, {}
     config["gns"]["model"] = "shipped"
+    config["montecarlo"]["simulator"] = "gns"
     message = config_error(config)
     assert "config key 'gns.model' = 'shipped': the shipped GNS does not serve this config: domain.length_m is 22.0" in message
+
+
+def test_a_derived_domain_within_the_end_state_surrogates_bounds_is_served(tmp_path):
+    config = site_config(tmp_path)
+    del config["domain"]
+    config["montecarlo"]["simulator"], config["endstate"]["model"] = "endstate", "shipped"
+    assert validate_config(config)["domain"] == {"length_m": 22.0, "height_m": 7.0}
