@@ -63,6 +63,11 @@ def _bias_failure(row: pd.Series, limit: float, cell_size_m: float) -> str | Non
     return None
 
 
+def _r2_bound(row: pd.Series) -> float:
+    """The lower end of R²'s interval; the point value where too few pairs give no interval (min_realizations < 3)."""
+    return row["r2_low"] if math.isfinite(row["r2_low"]) else row["r2"]
+
+
 def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict[str, Any],
           cell_size_m: float, surrogate: str = "gns") -> dict[str, Verdict]:
     """The verdict of every case of a validation table (rows of case × metric) and its summaries, for
@@ -82,7 +87,7 @@ def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict
             if row["n"] < acceptance["min_realizations"]:
                 failures.append(f"{row['metric']}: {row['n']} finished pairs, fewer than the "
                                 f"{acceptance['min_realizations']} the gate needs (validation.acceptance.min_realizations)")
-            elif math.isfinite(row["r2"]) and not row["r2_low"] >= limits["r2_min"]:
+            elif math.isfinite(row["r2"]) and not _r2_bound(row) >= limits["r2_min"]:
                 failures.append(f"{row['metric']} R² {row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}]: "
                                 f"lower bound < {limits['r2_min']:g}")
             problem = _bias_failure(row, limits["relative_bias_max"], cell_size_m)

@@ -241,7 +241,8 @@ def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_
     copy_dir = tmp_path / "strict"
     shutil.copytree(workdir, copy_dir)
     strict = copy.deepcopy(config)
-    strict["validation"]["acceptance"] = {"metrics": {"runout": {"r2_min": 0.99, "relative_bias_max": 0.001}}}
+    strict["validation"]["acceptance"] = {"metrics": {"runout": {"r2_min": 0.99, "relative_bias_max": 0.001}},
+                                        "min_realizations": 1}
     path = write_config(tmp_path / "strict.yaml", strict)
     result = snakemake(copy_dir, "--cores", "2", "hazard_map", config=path)
     assert result.returncode == 0, result.stderr
@@ -311,7 +312,8 @@ def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built
     config = copy.deepcopy(built[1])
     config["montecarlo"]["simulator"] = "endstate"
     config["endstate"] = {"model": "train", "realizations": 4, "held_out": 2, "chunk_size": 2, "widths": [4, 8],
-                          "steps": 20, "checkpoint_every": 10, "threads": 1}
+                          "steps": 20, "checkpoint_every": 10, "threads": 1,
+                          "validation": {"sets": ["case1"], "data_seed": 99, "realizations": 3, "chunk_size": 2}}
     packed = workdir / "results" / "dataset" / "case1.h5"
     before = packed.stat().st_mtime_ns
     result = snakemake(workdir, "--cores", "2", "hazard_map", config=write_config(tmp_path / "endstate.yaml", config))
@@ -331,3 +333,19 @@ def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built
     page = (results / "report" / "report.html").read_text()
     assert "End-state surrogate" in page and "the end-state surrogate passed the validation gate" in page
     assert packed.stat().st_mtime_ns == before
+
+    # its card: validated on endstate.validation's sets (their own seed) first; the model is not retrained
+    model_time = (results / "model" / "endstate.pt").stat().st_mtime_ns
+    result = snakemake(workdir, "--cores", "2", "pretrain_endstate", config=write_config(tmp_path / "endstate.yaml", config))
+    assert result.returncode == 0, result.stderr
+    assert (results / "model" / "endstate.pt").stat().st_mtime_ns == model_time
+    validation = read_end_states(sorted((results / "endstate" / "validation" / "case1").glob("chunk_*.h5")))
+    assert [state.index for state in validation] == [0, 1, 2]
+    assert not np.allclose(validation[0].friction_deg, read_end_states(
+        [results / "endstate" / "data" / "case1" / "chunk_000.h5"])[0].friction_deg)  # another seed's draw
+    ood = json.loads((results / "model" / "endstate_ood.json").read_text())
+    assert [(row["set"], row["metric"], row["n"]) for row in ood] == [("case1", m, 3) for m in ("runout", "volume", "influence")]
+    card = json.loads((results / "model" / "endstate_card.json").read_text())
+    assert card["features"] == "body" and card["bounds"] == {"domain.length_m": 40.0, "domain.height_m": 10.0}
+    assert card["ranges"]["field"]["friction_std_deg"] == [5.0, 5.0]
+    assert "Validation on slopes and soils it never saw" in (results / "model" / "endstate_card.md").read_text()
