@@ -187,13 +187,16 @@ def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
     from rgns.endstate.card import check_serves, outside_ranges  # local: only needed here
     from rgns.shipped import MODELS, ShippedModelError, read_card
 
-    if config["montecarlo"]["simulator"] != "endstate" or config["endstate"]["model"] != "shipped":
+    model = config["endstate"]["model"]
+    if config["montecarlo"]["simulator"] != "endstate" or model == "train":
         return []
     try:
-        card = read_card(MODELS, "endstate_card.json")
+        card = read_card(MODELS, "endstate_card.json" if model == "shipped" else "endstate_general_card.json")
         check_serves(card, config)
     except ShippedModelError as error:
-        return [f"config key 'endstate.model' = 'shipped': {error}"]
+        other = (" — or endstate.model: general, the geometry-general model for any slope in a domain up to "
+                 "80 x 20 m (rgns/models/endstate_general_card.md)" if model == "shipped" else "")
+        return [f"config key 'endstate.model' = {model!r}: {error}{other}"]
     for line in outside_ranges(card, config, config["montecarlo"]["cases"]):
         log.warning(line)
     return []

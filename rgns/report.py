@@ -191,8 +191,8 @@ def gate_section(report: Report, gate: dict[str, dict[str, Any]], cases: list[st
 def model_section(report: Report, surrogate: str, evaluation: dict[str, Any], learning_curve: Path) -> None:
     """What the learned simulator is and how it trained."""
     if surrogate == "endstate":
-        origin = ("the model shipped with rgns (card: rgns/models/endstate_card.md), " if evaluation.get("shipped")
-                  else "")
+        card = evaluation.get("card", "rgns/models/endstate_card.md")
+        origin = f"the model shipped with rgns (card: {card}), " if evaluation.get("shipped") else ""
         report.add("End-state surrogate",
                    paragraph(f"{origin}{evaluation['steps']} training steps; held-out loss "
                              f"{evaluation['valid_loss']:.3g} against the mean predictor's "

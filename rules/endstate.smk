@@ -1,14 +1,16 @@
 SHIPPED_ENDSTATE = os.path.join(workflow.basedir, "rgns/models")
+# the shipped model's file stem: the test-case model (endstate.model: shipped) or the geometry-general one
+SHIPPED_ENDSTATE_STEM = {"shipped": "endstate", "general": "endstate_general"}.get(config["endstate"]["model"])
 
-if config["endstate"]["model"] == "shipped":
+if SHIPPED_ENDSTATE_STEM:
 
     rule shipped_endstate:
-        """Take the pretrained end-state surrogate shipped with the package (its card:
-        rgns/models/endstate_card.md), checked to serve this config."""
+        """Take a pretrained end-state surrogate shipped with the package (its card:
+        rgns/models/endstate_card.md, or endstate_general_card.md), checked to serve this config."""
         input:
-            model=os.path.join(SHIPPED_ENDSTATE, "endstate.pt"),
-            card=os.path.join(SHIPPED_ENDSTATE, "endstate_card.json"),
-            curve=os.path.join(SHIPPED_ENDSTATE, "endstate_curve.png"),
+            model=os.path.join(SHIPPED_ENDSTATE, f"{SHIPPED_ENDSTATE_STEM}.pt"),
+            card=os.path.join(SHIPPED_ENDSTATE, f"{SHIPPED_ENDSTATE_STEM}_card.json"),
+            curve=os.path.join(SHIPPED_ENDSTATE, f"{SHIPPED_ENDSTATE_STEM}_curve.png"),
         output:
             model="results/model/endstate.pt",
             curve=report("results/model/endstate_curve.png", caption="../docs/captions/endstate_curve.rst", category="End-state surrogate"),

@@ -340,5 +340,5 @@ def test_a_derived_domain_the_shipped_model_does_not_serve_is_refused_before_any
 def test_a_derived_domain_within_the_end_state_surrogates_bounds_is_served(tmp_path):
     config = site_config(tmp_path)
     del config["domain"]
-    config["montecarlo"]["simulator"], config["endstate"]["model"] = "endstate", "shipped"
+    config["montecarlo"]["simulator"], config["endstate"]["model"] = "endstate", "general"
     assert validate_config(config)["domain"] == {"length_m": 22.0, "height_m": 7.0}

@@ -13,5 +13,6 @@ card = read_card(Path(snakemake.input.card).parent, Path(snakemake.input.card).n
 check_serves(card, snakemake.params.config)
 shutil.copyfile(snakemake.input.model, snakemake.output.model)
 shutil.copyfile(snakemake.input.curve, snakemake.output.curve)
-Path(snakemake.output.evaluation).write_text(json.dumps(card["evaluation"], indent=2) + "\n")
+evaluation = card["evaluation"] | {"card": f"rgns/models/{Path(snakemake.input.card).stem}.md"}
+Path(snakemake.output.evaluation).write_text(json.dumps(evaluation, indent=2) + "\n")
 log.info("shipped end-state surrogate: %d steps, data %s", card["steps"], card["data_fingerprint"])
