@@ -34,10 +34,15 @@ def served(config: dict[str, Any], features: str = "domain") -> dict[str, Any]:
 def check_serves(card: dict[str, Any], config: dict[str, Any]) -> None:
     """Raise naming every tied key whose value differs between the card and ``config``, and every
     domain extent beyond the card's bounds."""
-    refuse_unserved(card["serves"], config, "end-state surrogate", "endstate.model")
     beyond = [f"{key} is {value!r}, the model serves at most {card['bounds'][key]!r}"
               for key, value in tied_values(config, DOMAIN_KEYS).items()
               if key in card.get("bounds", {}) and value > card["bounds"][key]]
+    try:
+        refuse_unserved(card["serves"], config, "end-state surrogate", "endstate.model")
+    except ShippedModelError as error:
+        if not beyond:
+            raise
+        raise ShippedModelError(f"{error}; and {'; '.join(beyond)}") from error
     if beyond:
         raise ShippedModelError("the shipped end-state surrogate does not serve this config: " + "; ".join(beyond)
                                 + " (a smaller domain that still holds the slope and its runout, or endstate.model: "
