@@ -340,5 +340,9 @@ def test_a_derived_domain_the_shipped_model_does_not_serve_is_refused_before_any
 def test_a_derived_domain_within_the_end_state_surrogates_bounds_is_served(tmp_path):
     config = site_config(tmp_path)
     del config["domain"]
-    config["montecarlo"]["simulator"], config["endstate"]["model"] = "endstate", "general"
+    config["sets"], config["geometry"]["families"] = {}, {}
+    config.setdefault("mpm", {})["duration_s"] = 10.0  # the general model's run length
+    config.setdefault("montecarlo", {})["simulator"] = "endstate"
+    config.setdefault("endstate", {})["model"] = "general"
+    config["gns"]["model"] = "shipped"  # no GNS training sets; the shipped GNS is not used beside the end-state route
     assert validate_config(config)["domain"] == {"length_m": 22.0, "height_m": 7.0}

@@ -7,7 +7,7 @@ import copy
 import numpy as np
 import pytest
 
-from rgns.config import load_config, validate_config
+from rgns.config import load_config, load_yaml, validate_config
 from rgns.endstate.data import simulate_end_states
 from rgns.geometry import build_scene, polygon_problems
 from rgns.realizations import CaseInputs, mean_vertices
@@ -83,7 +83,7 @@ def test_the_engine_runs_every_kind():
 
 
 def test_a_generated_family_names_a_missing_or_unknown_parameter():
-    config = copy.deepcopy(load_config(REPO / "config" / "pretrain_general.yaml"))
+    config = load_yaml(REPO / "config" / "pretrain_general.yaml")
     params = config["geometry"]["families"]["gen_embankment"]["params"]
     del params["height_m"]
     params["heigth_m"] = 5.0
