@@ -2,7 +2,7 @@
 
     snakemake --cores 2 --configfile config/pretrain_general.yaml --directory work/pretrain_general \
         --until endstate_validation_data
-    python benchmarks/ood_surrogate.py --compare previous_endstate.pt
+    python benchmarks/ood_surrogate.py --model rgns/models/endstate_general.pt --compare rgns/models/endstate.pt
 
 The first command runs the MPM end states of config/pretrain_general.yaml's endstate.validation
 sets (three geometry families no training set drew, a field model outside every training draw,
@@ -25,7 +25,7 @@ import torch
 
 from rgns.config import load_config
 from rgns.endstate.data import read_end_states, simulate_end_states
-from rgns.endstate.evaluate import agreement_rows, markdown_table, paired_metrics
+from rgns.endstate.evaluate import agreement_table, markdown_table
 from rgns.endstate.model import load_model
 from rgns.metrics import MetricSettings
 from rgns.realizations import CaseInputs
@@ -36,16 +36,10 @@ REPO = Path(__file__).resolve().parent.parent
 
 def evaluate(model_path: str, config: dict, data: Path, sets: list[str], realizations: int) -> pd.DataFrame:
     """The agreement rows of a model on every set's end states (the first ``realizations`` of each)."""
-    model = load_model(model_path)
-    metrics = MetricSettings(**config["metrics"])
     seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
-    rows = []
-    for name in sets:
-        states = [s for s in read_end_states(sorted((data / name).glob("chunk_*.h5"))) if s.index < realizations]
-        pairs = paired_metrics(model, states, CaseInputs.from_config(seeded, name), metrics)
-        rows += agreement_rows(pairs)
-        print(f"{name}: {len(pairs)} realizations", flush=True)
-    return pd.DataFrame(rows)
+    chosen = {name: ([s for s in read_end_states(sorted((data / name).glob("chunk_*.h5"))) if s.index < realizations],
+                     CaseInputs.from_config(seeded, name)) for name in sets}
+    return agreement_table(load_model(model_path), chosen, MetricSettings(**config["metrics"]))
 
 
 def cost_per_realization(model_path: str, config: dict, case: str, count: int) -> dict[str, float]:

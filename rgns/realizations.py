@@ -77,10 +77,15 @@ def accurate_case_inputs(config: dict[str, Any], case: str, cell_size_m: float) 
     return CaseInputs.from_config(accurate, case)
 
 
+def draw_scene(inputs: CaseInputs, index: int) -> Scene:
+    """Realization ``index``'s scene alone, from its own seed (no friction field)."""
+    return build_scene(inputs.case, index, inputs.family_name, inputs.family, inputs.domain, inputs.mesh,
+                       inputs.geometry, inputs.seed)
+
+
 def draw_realization(inputs: CaseInputs, index: int) -> Realization:
     """Realization ``index``: its scene and friction field from its own seeds."""
-    scene = build_scene(inputs.case, index, inputs.family_name, inputs.family, inputs.domain, inputs.mesh,
-                        inputs.geometry, inputs.seed)
+    scene = draw_scene(inputs, index)
     field = friction_field(
         inputs.seed, inputs.case, index, inputs.group, inputs.field_grid, inputs.random_field["method"],
         tuple(inputs.random_field["friction_bounds_deg"]), scene.positions)

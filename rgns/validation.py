@@ -65,7 +65,7 @@ def nrmse(mpm: np.ndarray, gns: np.ndarray) -> float:
 
 
 def _r2_along(mpm: np.ndarray, gns: np.ndarray, axis: int = -1) -> np.ndarray:
-    """R² of resampled pairs along ``axis`` (vectorised for scipy.stats.bootstrap); NaN where MPM is constant."""
+    """R² of resampled pairs along ``axis`` (one per bootstrap resample); NaN where MPM is constant."""
     ss_tot = np.sum((mpm - mpm.mean(axis=axis, keepdims=True)) ** 2, axis=axis)
     ss_res = np.sum((gns - mpm) ** 2, axis=axis)
     with np.errstate(divide="ignore", invalid="ignore"):

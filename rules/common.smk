@@ -296,24 +296,26 @@ def endstate_validation_chunk_ids():
     return [f"{k:03d}" for k in range(-(-section["realizations"] // section["chunk_size"]))]
 
 
+def end_state_chunk_params(case, seed, chunk, chunk_size, total):
+    """A set's inputs drawn from ``seed``, and the MPM run of chunk ``chunk`` of its ``total`` realizations."""
+    first = int(chunk) * chunk_size
+    return {"inputs": asdict(CaseInputs.from_config(config | {"seed": seed}, case)),
+            "indices": list(range(first, min(first + chunk_size, total))), "mpm": config["mpm"],
+            "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
+
+
 def endstate_validation_params(wildcards):
     """A validation set's inputs drawn from endstate.validation.data_seed, and the MPM run of one chunk of them."""
     section = config["endstate"]["validation"]
-    first = int(wildcards.chunk) * section["chunk_size"]
-    last = min(first + section["chunk_size"], section["realizations"])
-    return {"inputs": asdict(CaseInputs.from_config(config | {"seed": section["data_seed"]}, wildcards.case)),
-            "indices": list(range(first, last)), "mpm": config["mpm"],
-            "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
+    return end_state_chunk_params(wildcards.case, section["data_seed"], wildcards.chunk, section["chunk_size"],
+                                  section["realizations"])
 
 
 def endstate_data_params(wildcards):
     """A test case's inputs drawn from endstate.data_seed, and the MPM run of one chunk of them."""
     section = config["endstate"]
-    first = int(wildcards.chunk) * section["chunk_size"]
-    last = min(first + section["chunk_size"], section["realizations"] + section["held_out"])
-    return {"inputs": asdict(CaseInputs.from_config(config | {"seed": section["data_seed"]}, wildcards.case)),
-            "indices": list(range(first, last)), "mpm": config["mpm"],
-            "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
+    return end_state_chunk_params(wildcards.case, section["data_seed"], wildcards.chunk, section["chunk_size"],
+                                  section["realizations"] + section["held_out"])
 
 
 def tuned_chunk_ids():

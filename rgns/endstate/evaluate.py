@@ -17,7 +17,7 @@ import pandas as pd
 from rgns.endstate.data import EndState
 from rgns.endstate.model import EndStateModel
 from rgns.metrics import MetricSettings, crest_x, runout_metrics
-from rgns.realizations import CaseInputs, draw_realization
+from rgns.realizations import CaseInputs, draw_scene
 from rgns.validation import METRICS, bootstrap_mean_interval, nrmse, paired_interval, r_squared
 
 
@@ -33,7 +33,7 @@ def paired_metrics(model: EndStateModel, states: list[EndState], inputs: CaseInp
         batch = states[first:first + batch_size]
         predicted = model.predict([s.initial for s in batch], [s.friction_deg for s in batch])
         for state, final in zip(batch, predicted):
-            scene = draw_realization(inputs, state.index).scene
+            scene = draw_scene(inputs, state.index)
             if scene.positions.shape != state.initial.shape or not np.allclose(scene.positions, state.initial):
                 raise EvaluationError(f"{inputs.case} realization {state.index}: the end-state file's points are "
                                       "not the ones this config seeds (another seed or geometry?)")
@@ -71,6 +71,13 @@ def agreement_rows(pairs: pd.DataFrame, bootstrap: int = 2000, confidence: float
                      "failed_mpm_only": int(((truth > 0) & (model == 0)).sum()),
                      "failed_model_only": int(((truth == 0) & (model > 0)).sum())})
     return rows
+
+
+def agreement_table(model: EndStateModel, sets: dict[str, tuple[list[EndState], CaseInputs]],
+                    metrics: MetricSettings) -> pd.DataFrame:
+    """The agreement rows of every set: its end states and the inputs they were drawn from."""
+    return pd.DataFrame([row for states, inputs in sets.values()
+                         for row in agreement_rows(paired_metrics(model, states, inputs, metrics))])
 
 
 def _interval(value: float, low: float, high: float, digits: int = 3, percent: bool = False) -> str:

@@ -2,11 +2,10 @@
 import json
 from pathlib import Path
 
-import pandas as pd
 import torch
 
 from rgns.endstate.data import read_end_states
-from rgns.endstate.evaluate import agreement_rows, markdown_table, paired_metrics
+from rgns.endstate.evaluate import agreement_table, markdown_table
 from rgns.endstate.model import load_model
 from rgns.logsetup import log_to_file
 from rgns.metrics import MetricSettings
@@ -15,13 +14,9 @@ from rgns.realizations import CaseInputs
 log = log_to_file(snakemake.log[0], "rgns")
 torch.set_num_threads(snakemake.threads)
 model = load_model(snakemake.input.model)
-metrics = MetricSettings(**snakemake.params.metrics)
-rows = []
-for case, params in snakemake.params.inputs.items():
-    files = [path for path in snakemake.input.data if Path(path).parent.name == case]
-    pairs = paired_metrics(model, read_end_states(files), CaseInputs.from_params(params), metrics)
-    rows += agreement_rows(pairs)
-    log.info("%s: %d realizations", case, len(pairs))
-table = pd.DataFrame(rows)
+sets = {case: (read_end_states([path for path in snakemake.input.data if Path(path).parent.name == case]),
+               CaseInputs.from_params(params)) for case, params in snakemake.params.inputs.items()}
+table = agreement_table(model, sets, MetricSettings(**snakemake.params.metrics))
+log.info("%s", ", ".join(f"{case}: {len(states)} realizations" for case, (states, _) in sets.items()))
 Path(snakemake.output.table).write_text(json.dumps(table.to_dict("records"), indent=2) + "\n")
 Path(snakemake.output.markdown).write_text(markdown_table(table))
