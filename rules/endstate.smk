@@ -54,6 +54,7 @@ else:
             evaluation="results/model/endstate_evaluation.json",
         params:
             endstate=ENDSTATE_TRAINING,
+            threshold_m=config["metrics"]["displacement_threshold_m"],
             domain=config["domain"],
             mesh=config["mesh"],
             checkpoints="results/model/endstate_checkpoints",

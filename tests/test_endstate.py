@@ -78,11 +78,11 @@ def test_resume_continues_exactly(tmp_path, monkeypatch):
     calls = {"n": 0}
     original = training.masked_loss
 
-    def dying(model, batch):
+    def dying(model, batch, threshold=None):
         calls["n"] += 1
         if calls["n"] == 13:  # 10 steps, the checkpoint's held-out loss, step 11, then killed in step 12
             raise KeyboardInterrupt
-        return original(model, batch)
+        return original(model, batch, threshold)
 
     monkeypatch.setattr(training, "masked_loss", dying)
     with pytest.raises(KeyboardInterrupt):
@@ -217,3 +217,25 @@ def test_body_features_are_height_above_the_floor_and_depth_below_the_surface():
     depth = np.array([top[c] - y + 0.25 for c, y in zip(column, initial[:, 1])])
     np.testing.assert_allclose(image[3, row, column] * 10.0, depth, atol=1e-6)
     assert image[3][image[0] == 0].max() == 0.0
+
+
+def test_threshold_term_pushes_points_across_the_threshold_the_metrics_count():
+    """The moved / not-moved term: off at weight 0; for a point the MPM moved past the threshold
+    (1.2 m) a prediction short of it (0.9 m) costs more than one past it (1.1 m) and its gradient
+    lengthens it; the reverse for a point that stayed (0.5 m)."""
+    assert training.ThresholdTerm.of(EndStateTrainSettings(), 2.0) is None
+    term = training.ThresholdTerm.of(EndStateTrainSettings(threshold_weight=1.0, threshold_m=1.0,
+                                                           threshold_width_m=0.1), 2.0)
+    assert term.threshold == 0.5 and term.width == 0.05
+    mask = torch.ones(1, 1, 1, 1)
+
+    def cost(predicted_m: float, target_m: float) -> tuple[float, float]:
+        predicted = torch.tensor([predicted_m / 2.0, 0.0]).reshape(1, 2, 1, 1).requires_grad_()
+        loss = term(predicted, torch.tensor([target_m / 2.0, 0.0]).reshape(1, 2, 1, 1), mask)
+        loss.backward()
+        return float(loss), float(predicted.grad[0, 0])
+
+    (short, short_slope), (past, _) = cost(0.9, 1.2), cost(1.1, 1.2)
+    assert short > 4 * past and short_slope < 0
+    (stayed, _), (false_alarm, alarm_slope) = cost(0.5, 0.5), cost(1.1, 0.5)
+    assert false_alarm > 5 * stayed and alarm_slope > 0

@@ -12,7 +12,8 @@ log = log_to_file(snakemake.log[0], "rgns")
 params = snakemake.params
 section = params.endstate
 settings = EndStateTrainSettings(**{key: section[key] for key in EndStateTrainSettings.__dataclass_fields__
-                                    if key != "widths"}, widths=tuple(section["widths"]))
+                                    if key not in ("widths", "threshold_m")}, widths=tuple(section["widths"]),
+                                 threshold_m=params.threshold_m)
 states = read_end_states(snakemake.input)
 training = [s for s in states if s.index < section["realizations"]]
 held_out = [s for s in states if s.index >= section["realizations"]]
