@@ -19,7 +19,8 @@ def _check_config(args: argparse.Namespace) -> int:
     try:
         config = load_config(args.config)
     except ConfigError as error:
-        print(f"{args.config}: {error}", file=sys.stderr)
+        message = str(error)
+        print(message if message.startswith(str(args.config)) else f"{args.config}: {message}", file=sys.stderr)
         return 1
     sizes = ", ".join(f"{name} {set_size(groups)}" for name, groups in config["sets"].items())
     print(f"{args.config}: valid; realizations per set: {sizes}")

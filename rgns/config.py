@@ -6,6 +6,7 @@ sets to geometry families, a mesh that tiles the domain.
 """
 from __future__ import annotations
 
+import difflib
 import logging
 from pathlib import Path
 from typing import Any, Iterator
@@ -28,9 +29,12 @@ class ConfigError(ValueError):
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
-    """Read a YAML file into a dict, naming the file if it is not a mapping."""
-    with open(path) as handle:
-        data = yaml.safe_load(handle)
+    """Read a YAML file into a dict, naming the file if it is missing or not a mapping."""
+    try:
+        with open(path) as handle:
+            data = yaml.safe_load(handle)
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read the config file ({error.strerror})") from error
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a mapping at the top level, got {type(data).__name__}")
     return data
@@ -44,10 +48,18 @@ def key_path(parts: Iterator[Any] | list[Any]) -> str:
     return text or "<top level>"
 
 
+def _nearest(error: jsonschema.ValidationError) -> str:
+    """'; did you mean ...' for each unexpected key with a close valid name at its level."""
+    valid = list(error.schema.get("properties", {}))
+    hints = [f"'{match[0]}' for '{key}'" for key in error.instance if key not in valid
+             for match in [difflib.get_close_matches(key, valid, n=1, cutoff=0.6)] if match]
+    return f"; did you mean {', '.join(hints)}?" if hints else ""
+
+
 def _describe(error: jsonschema.ValidationError) -> str:
     where = key_path(list(error.absolute_path))
     if error.validator == "additionalProperties":
-        return f"config key '{where}': {error.message}"
+        return f"config key '{where}': {error.message}{_nearest(error)}"
     if error.validator == "required":
         return f"config key '{where}': {error.message}"
     reason = error.message
@@ -55,6 +67,30 @@ def _describe(error: jsonschema.ValidationError) -> str:
         matching_type = [sub for sub in error.context if sub.validator != "type"]
         reason = jsonschema.exceptions.best_match(matching_type or error.context).message
     return f"config key '{where}' = {error.instance!r}: {reason}"
+
+
+SCALAR_TYPES = {"integer": int, "number": (int, float), "boolean": bool}
+
+
+def coerce_text_values(config: dict[str, Any], schema: dict[str, Any]) -> None:
+    """Turn text where the schema expects a number or a boolean into one, in place: Snakemake's
+    ``--config 'montecarlo={realizations: 320}'`` hands nested values over as text ('320')."""
+    validator = jsonschema.Draft202012Validator(schema)
+    for error in list(validator.iter_errors(config)):
+        for sub in [error, *(error.context or [])]:
+            expected = sub.validator_value if sub.validator == "type" else None
+            if not isinstance(sub.instance, str) or expected is None:
+                continue
+            value = yaml.safe_load(sub.instance)
+            kinds = [expected] if isinstance(expected, str) else expected
+            if any(isinstance(value, SCALAR_TYPES.get(kind, ())) and not (kind != "boolean" and isinstance(value, bool))
+                   for kind in kinds) and sub.absolute_path:
+                *parents, last = list(sub.absolute_path)
+                target = config
+                for part in parents:
+                    target = target[part]
+                target[last] = value
+                break
 
 
 def schema_errors(config: dict[str, Any], schema: dict[str, Any]) -> list[str]:
@@ -263,7 +299,9 @@ def validate_config(config: dict[str, Any], schema_path: str | Path = SCHEMA_PAT
     """
     from snakemake.utils import validate  # fills the schema defaults in place
 
-    errors = schema_errors(config, load_yaml(schema_path))
+    schema = load_yaml(schema_path)
+    coerce_text_values(config, schema)
+    errors = schema_errors(config, schema)
     if not errors:
         derive_domain = "domain" not in config  # a site without a domain section sizes its own
         validate(config, str(schema_path))

@@ -128,3 +128,35 @@ def test_a_monte_carlo_case_with_two_groups_is_refused_naming_it(raw_default_con
     raw_default_config["montecarlo"] = {"cases": ["case1"]}
     with pytest.raises(ConfigError, match=r"'montecarlo.cases\[0\]' = 'case1': set 'case1' has 2 groups"):
         validate_config(raw_default_config)
+
+
+def test_numbers_given_as_text_by_a_nested_config_override_are_read_as_numbers(raw_default_config):
+    """Snakemake hands ``--config 'montecarlo={realizations: 320}'`` over as text ('320'): read as the
+    schema's type; text that is no number still fails naming key and value."""
+    config = copy.deepcopy(raw_default_config)
+    config["montecarlo"] |= {"realizations": "320", "chunk_size": "32"}
+    config["metrics"] = {"displacement_threshold_m": "0.5"}
+    checked = validate_config(config)
+    assert checked["montecarlo"]["realizations"] == 320 and checked["montecarlo"]["chunk_size"] == 32
+    assert checked["metrics"]["displacement_threshold_m"] == 0.5
+    config = copy.deepcopy(raw_default_config)
+    config["montecarlo"]["realizations"] = "many"
+    with pytest.raises(ConfigError, match=r"config key 'montecarlo.realizations' = 'many': 'many' is not of type"):
+        validate_config(config)
+
+
+def test_a_misspelled_key_gets_the_nearest_valid_name(raw_default_config):
+    config = copy.deepcopy(raw_default_config)
+    config["montecarlo"]["realizatons"] = 320
+    with pytest.raises(ConfigError, match=r"'realizatons' was unexpected\); did you mean 'realizations' for "
+                                          r"'realizatons'\?"):
+        validate_config(config)
+
+
+def test_a_missing_config_file_is_one_line(tmp_path, capsys):
+    from rgns.cli import main
+    with pytest.raises(ConfigError, match=r"nonexistent.yaml: cannot read the config file \(No such file"):
+        load_yaml(tmp_path / "nonexistent.yaml")
+    assert main(["check-config", str(tmp_path / "nonexistent.yaml")]) == 1
+    assert capsys.readouterr().err == f"{tmp_path / 'nonexistent.yaml'}: cannot read the config file (No such file " \
+                                      "or directory)\n"

@@ -61,6 +61,14 @@ def test_training_from_scratch_schedules_the_training_sets_and_the_training(tmp_
     assert jobs["geometry"] == sum(sizes) and jobs["pack"] == len(sizes)
 
 
+def test_a_nested_config_override_with_numbers_works_as_the_readme_writes_it(tmp_path):
+    """``--config 'montecarlo={realizations: 320, chunk_size: 32}'`` (Snakemake passes the numbers as text)."""
+    jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map", "--config",
+                               "montecarlo={realizations: 320, chunk_size: 32}"))
+    cases = len(load_config(REPO / "config" / "config.yaml")["montecarlo"]["cases"])
+    assert jobs["mc_chunk"] == 10 * cases
+
+
 def test_a_bad_config_stops_before_any_job_runs_naming_key_and_value(tmp_path):
     config = load_yaml(TINY_CONFIG)
     config["sets"]["train"][0]["correlation_length_x_m"] = -8.0
