@@ -53,6 +53,7 @@ class Report:
     """Sections of HTML, in order."""
 
     title: str
+    lead: str = ""  # HTML under the title, before the first section
     sections: list[tuple[str, str]] = field(default_factory=list)
 
     def add(self, heading: str, *parts: str) -> None:
@@ -61,7 +62,8 @@ class Report:
     def html(self) -> str:
         body = "\n".join(f"<h2>{html.escape(h)}</h2>\n{content}" for h, content in self.sections)
         return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(self.title)}</title>"
-                f"<style>{STYLE}</style></head><body><h1>{html.escape(self.title)}</h1>\n{body}\n</body></html>\n")
+                f"<style>{STYLE}</style></head><body><h1>{html.escape(self.title)}</h1>\n{self.lead}\n{body}\n"
+                "</body></html>\n")
 
 
 def paragraph(text: str, note: bool = False) -> str:
@@ -185,6 +187,11 @@ def gate_section(report: Report, gate: dict[str, dict[str, Any]], cases: list[st
                     f"on the {name}" if verdict["simulator"] == "mpm" else "the Monte Carlo was stopped")
             lines.append(paragraph(f"{case}: the {name} FAILED the validation gate ({'; '.join(verdict['failures'])}); "
                                    f"{then}.", note=True))
+    for case, verdict in gate.items():  # validated test cases outside the Monte Carlo: their verdicts too
+        if case not in cases:
+            outcome = "passed" if verdict["passed"] else f"FAILED ({'; '.join(verdict['failures'])})"
+            lines.append(paragraph(f"{case} (validated, not in the Monte Carlo): the {name} {outcome} the "
+                                   "validation gate.", note=not verdict["passed"]))
     report.add("Validation gate", *lines, table(validation_table))
 
 
@@ -207,13 +214,31 @@ def model_section(report: Report, surrogate: str, evaluation: dict[str, Any], le
                figure(learning_curve, caption("learning_curve")))
 
 
+def routes(cases: list[str], gate: dict[str, dict[str, Any]], surrogate: str) -> dict[str, str]:
+    """What ran each Monte Carlo case: the surrogate that passed its gate, MPM after a failed gate, or MPM."""
+    name = SURROGATE_NAMES[surrogate]
+    return {case: ("MPM (configured)" if case not in gate else
+                   f"{name} (passed its gate)" if gate[case]["passed"] else
+                   f"MPM (the {name} failed its gate)" if gate[case]["simulator"] == "mpm" else "stopped")
+            for case in cases}
+
+
+def provenance_line(made: dict[str, str], case_routes: dict[str, str]) -> str:
+    """One line: which code and configuration made the page, when, and the route of each case."""
+    route_text = "; ".join(f"{case}: {route}" for case, route in case_routes.items())
+    return paragraph(f"Made by rgns {made['version']} (commit {made['commit']}) from configuration "
+                     f"{made['config_digest']} (SHA-256 prefix) on {made['made_utc']}. Monte Carlo: {route_text}.")
+
+
 def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], learning_curve: Path,
                  evaluation: dict[str, Any], validation_table: pd.DataFrame, validation_summary: list[dict],
                  validation_figures: dict[str, Path], hazard: dict[str, dict[str, Path]],
-                 gate: dict[str, dict[str, Any]] | None = None, surrogate: str = "gns") -> str:
-    """The whole page: the validation gate's verdict first, then configuration, model, validation, hazard.
-    ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and evaluation these are."""
-    report = Report(title)
+                 gate: dict[str, dict[str, Any]] | None = None, surrogate: str = "gns",
+                 made: dict[str, str] | None = None) -> str:
+    """The whole page: what made it, the validation gate's verdict, then configuration, model, validation,
+    hazard. ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and evaluation
+    these are; ``made`` the provenance (rgns.provenance)."""
+    report = Report(title, provenance_line(made, routes(list(hazard), gate or {}, surrogate)) if made else "")
     gate_section(report, gate or {}, list(hazard), validation_table, surrogate)
     fidelity_summary(report, hazard)
     report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>")

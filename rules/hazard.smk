@@ -60,6 +60,7 @@ rule report:
         sets=RUN_SETS,
         surrogate=SURROGATE,
         config_summary=lambda wildcards: {key: config[key] for key in ("seed", "domain", "mesh", "montecarlo", "hazard", "metrics")},
+        config=lambda wildcards: config,
     log:
         "logs/report/report.log",
     conda:

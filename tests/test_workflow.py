@@ -159,6 +159,10 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
                     "Multi-fidelity check", "Hazard: case1 — multi-fidelity correction"):
         assert heading in page
     assert page.count("<img") == 3 + 1 + 3 + 4  # scenes, learning curve, validation, hazard
+    # what made the page, above everything else: version, commit, config digest, time, each case's route
+    lead = page.split("<h2>")[0]
+    assert re.search(r"Made by rgns \S+ \(commit [0-9a-f]{10}[^)]*\) from configuration [0-9a-f]{12} \(SHA-256 "
+                     r"prefix\) on \d{4}-\d\d-\d\d \d\d:\d\d UTC\. Monte Carlo: case1: ", lead), lead[-600:]
     # the first `paired` realizations again by the MPM at 0.5 m cells: the same field, a finer mesh
     paired = read_csv(results / "mc" / "case1" / "paired.csv")
     assert list(paired["index"]) == [0, 1] and (paired["n_particles"] == 4 * 120).all()
@@ -279,6 +283,7 @@ def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_
     page = (copy_dir / "results" / "report" / "report.html").read_text()
     top = page.split("<h2>")[1]
     assert top.startswith("Validation gate") and "FAILED the validation gate" in top and "run by MPM" in top
+    assert "Monte Carlo: case1: MPM (the GNS failed its gate)." in page.split("<h2>")[0]
 
     strict["validation"]["acceptance"]["on_failure"] = "stop"
     for chunk in (copy_dir / "results" / "mc" / "case1").glob("chunk_*.csv"):

@@ -3,6 +3,7 @@ import json
 from pathlib import Path
 
 from rgns.logsetup import log_to_file
+from rgns.provenance import provenance
 from rgns.report import build_report
 from rgns.tables import read_csv
 
@@ -22,6 +23,7 @@ page = build_report(
     hazard=hazard,
     gate=json.loads(Path(inputs.gate[0]).read_text()) if inputs.gate else None,
     surrogate=params.surrogate,
+    made=provenance(params.config),
 )
 Path(snakemake.output[0]).write_text(page)
 log.info("report of %d Monte Carlo case(s) written (%.1f MB)", len(hazard), len(page) / 1e6)

@@ -1,0 +1,30 @@
+"""The report's top: every gate verdict, the route of each Monte Carlo case, what made the page."""
+import pandas as pd
+
+from rgns.report import Report, gate_section, provenance_line, routes
+
+GATE = {"case1": {"passed": True, "failures": [], "simulator": "endstate", "evidence": ["runout R² 0.99 [0.97, 1.00] on 16"]},
+        "case2": {"passed": False, "failures": ["volume R² 0.93 [0.76, 0.97]: lower bound < 0.9"], "simulator": "mpm"},
+        "case4": {"passed": False, "failures": ["influence R² 0.71 [0.39, 0.87]: lower bound < 0.9"],
+                  "simulator": "mpm"}}
+
+
+def test_every_verdict_is_in_the_report_also_of_cases_outside_the_monte_carlo():
+    report = Report("r")
+    gate_section(report, GATE, ["case1", "case2"], pd.DataFrame({"case": ["case1"]}), "endstate")
+    page = report.html()
+    assert "case1: the end-state surrogate passed the validation gate" in page
+    assert "case2: the end-state surrogate FAILED the validation gate" in page
+    assert ("case4 (validated, not in the Monte Carlo): the end-state surrogate FAILED (influence R² 0.71 "
+            "[0.39, 0.87]: lower bound &lt; 0.9) the validation gate.") in page
+
+
+def test_the_lead_names_the_route_of_each_case():
+    case_routes = routes(["case1", "case2", "site"], GATE, "endstate")
+    assert case_routes == {"case1": "end-state surrogate (passed its gate)",
+                           "case2": "MPM (the end-state surrogate failed its gate)", "site": "MPM (configured)"}
+    made = {"version": "0.1.0", "commit": "0123456789", "config_digest": "abcdef012345", "made_utc": "2026-11-25 09:00 UTC"}
+    page = Report("r", provenance_line(made, case_routes)).html()
+    assert ("Made by rgns 0.1.0 (commit 0123456789) from configuration abcdef012345 (SHA-256 prefix) on "
+            "2026-11-25 09:00 UTC. Monte Carlo: case1: end-state surrogate (passed its gate); case2: MPM (the "
+            "end-state surrogate failed its gate); site: MPM (configured).") in page
