@@ -8,6 +8,7 @@ from __future__ import annotations
 import base64
 import html
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
@@ -36,11 +37,16 @@ def caption(name: str, **wildcards: str) -> str:
     return jinja2.Template(text).render(snakemake=SimpleNamespace(wildcards=SimpleNamespace(**wildcards)))
 
 
+def rendered(text: str) -> str:
+    """A caption's text as HTML: escaped, its reStructuredText literals (``x``) as code."""
+    return re.sub(r"``(.+?)``", r"<code>\1</code>", html.escape(text))
+
+
 def figure(path: str | Path, text: str) -> str:
     """An inlined PNG with its caption."""
     data = base64.b64encode(Path(path).read_bytes()).decode("ascii")
     return (f'<figure><img alt="{html.escape(Path(path).name)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{html.escape(text)}</figcaption></figure>")
+            f"<figcaption>{rendered(text)}</figcaption></figure>")
 
 
 def table(frame: pd.DataFrame, digits: int = 3) -> str:
@@ -239,6 +245,9 @@ def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], 
     hazard. ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and evaluation
     these are; ``made`` the provenance (rgns.provenance)."""
     report = Report(title, provenance_line(made, routes(list(hazard), gate or {}, surrogate)) if made else "")
+    # the table's columns named after the simulator that ran (its files call every learned simulator gns)
+    validation_table = validation_table.rename(columns=lambda column: column.replace(
+        "gns", SURROGATE_NAMES[surrogate].replace(" ", "_").replace("-", "_")) if column.startswith("gns") else column)
     gate_section(report, gate or {}, list(hazard), validation_table, surrogate)
     fidelity_summary(report, hazard)
     report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>")

@@ -1,4 +1,4 @@
-"""Validation figures, GNS against MPM (matplotlib, Agg backend): one function per figure, each writes one PNG.
+"""Validation figures, the learned simulator (GNS or end-state surrogate) against MPM (matplotlib, Agg backend): one function per figure, each writes one PNG.
 
 Only realizations whose GNS rollout is ok enter the figures, as in the statistics of
 ``rgns.validation``.
@@ -20,8 +20,9 @@ ENERGY_LABELS = ("$E_p / E_0$", "$E_k / E_0$", "$E_d / E_0$")
 PICK_ORDER = ("best", "median", "worst")
 
 
-def plot_histograms(pairs_by_case: dict[str, pd.DataFrame], path: str | Path) -> None:
-    """Overlaid MPM and GNS histograms with common bins: one row per case, one column per metric."""
+def plot_histograms(pairs_by_case: dict[str, pd.DataFrame], path: str | Path, name: str = "GNS") -> None:
+    """Overlaid MPM and learned-simulator (``name``) histograms with common bins: one row per case, one
+    column per metric."""
     figure, axes = plt.subplots(
         len(pairs_by_case), len(METRICS), figsize=(4.0 * len(METRICS), 2.8 * len(pairs_by_case)),
         squeeze=False, constrained_layout=True,
@@ -32,7 +33,7 @@ def plot_histograms(pairs_by_case: dict[str, pd.DataFrame], path: str | Path) ->
             mpm, gns = ok[f"{stem}_mpm"].to_numpy(float), ok[f"{stem}_gns"].to_numpy(float)
             bins = np.histogram_bin_edges(np.concatenate([mpm, gns]), bins="auto")
             axis.hist(mpm, bins=bins, alpha=0.5, color="C0", label="MPM")
-            axis.hist(gns, bins=bins, histtype="step", linewidth=1.5, color="C1", label="GNS")
+            axis.hist(gns, bins=bins, histtype="step", linewidth=1.5, color="C1", label=name)
             axis.set_xlabel(label)
         row[0].set_ylabel(f"{case}\ncount")
         row[0].legend(fontsize=8)
@@ -40,8 +41,9 @@ def plot_histograms(pairs_by_case: dict[str, pd.DataFrame], path: str | Path) ->
     plt.close(figure)
 
 
-def plot_parity(pairs_by_case: dict[str, pd.DataFrame], path: str | Path) -> None:
-    """GNS against MPM per metric, coloured by case, with the 1:1 line and R² per case."""
+def plot_parity(pairs_by_case: dict[str, pd.DataFrame], path: str | Path, name: str = "GNS") -> None:
+    """The learned simulator (``name``) against MPM per metric, coloured by case, with the 1:1 line and
+    R² per case."""
     figure, axes = plt.subplots(1, len(METRICS), figsize=(4.5 * len(METRICS), 4.3), constrained_layout=True)
     for axis, (stem, label) in zip(axes, METRICS.values()):
         low, high = np.inf, -np.inf
@@ -56,15 +58,18 @@ def plot_parity(pairs_by_case: dict[str, pd.DataFrame], path: str | Path) -> Non
         if np.isfinite(low):
             axis.plot([low, high], [low, high], color="black", linewidth=0.8, label="1:1")
         axis.set_xlabel(f"MPM {label}")
-        axis.set_ylabel(f"GNS {label}")
+        axis.set_ylabel(f"{name} {label}")
         axis.set_aspect("equal", adjustable="datalim")
         axis.legend(fontsize=8)
     figure.savefig(path, dpi=110)
     plt.close(figure)
 
 
-def plot_energy_evolution(energies: dict, picks: dict[str, int], case: str, path: str | Path) -> None:
-    """Normalised Ep, Ek, Ed (rows) of the best, median and worst realization (columns): MPM vs GNS.
+def plot_energy_evolution(energies: dict, picks: dict[str, int], case: str, path: str | Path,
+                          name: str = "GNS") -> None:
+    """Normalised Ep, Ek, Ed (rows) of the best, median and worst realization (columns): MPM vs the
+    learned simulator ``name``: a curve, or only its start and end as points where it has no path
+    between (the end-state surrogate: its energies are NaN there).
 
     ``energies`` holds ``time_s`` [T], ``index`` [B], ``mpm`` and ``gns`` [B, T, 3]; ``picks``
     maps "best"/"median"/"worst" to a realization ``index``.
@@ -80,7 +85,12 @@ def plot_energy_evolution(energies: dict, picks: dict[str, int], case: str, path
         for component, label in enumerate(ENERGY_LABELS):
             axis = axes[component, column]
             axis.plot(time_s, energies["mpm"][row_number, :, component], "-", color="C0", label="MPM (true)")
-            axis.plot(time_s, energies["gns"][row_number, :, component], "--", color="C1", label="GNS (pred)")
+            predicted = energies["gns"][row_number, :, component]
+            known = np.isfinite(predicted)
+            if known.all():
+                axis.plot(time_s, predicted, "--", color="C1", label=f"{name} (pred)")
+            elif known.any():  # the end-state surrogate: its start and end, no path between
+                axis.plot(time_s[known], predicted[known], "o", color="C1", label=f"{name} (end state)")
             axis.set_ylabel(label)
         axes[0, column].set_title(f"{case} {pick}: realization {picks[pick]}")
         axes[-1, column].set_xlabel("time (s)")

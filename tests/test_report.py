@@ -28,3 +28,9 @@ def test_the_lead_names_the_route_of_each_case():
     assert ("Made by rgns 0.1.0 (commit 0123456789) from configuration abcdef012345 (SHA-256 prefix) on "
             "2026-11-25 09:00 UTC. Monte Carlo: case1: end-state surrogate (passed its gate); case2: MPM (the "
             "end-state surrogate failed its gate); site: MPM (configured).") in page
+
+
+def test_captions_render_their_literals():
+    from rgns.report import caption, rendered
+    text = rendered(caption("scenes", set="case1"))
+    assert "<code>case1</code>" in text and "``" not in text

@@ -159,3 +159,26 @@ def test_each_plot_writes_a_non_empty_png(tmp_path):
     for path in paths:
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert path.stat().st_size > 5000
+
+
+def test_the_figures_name_the_simulator_that_ran_and_show_no_path_it_has_not(tmp_path, monkeypatch):
+    """With the end-state surrogate: its name on the parity axes and in the legends, and its energies
+    as start and end points (NaN between), no dashed curve."""
+    import rgns.validation_plots as plots
+    kept = []
+    monkeypatch.setattr(plots.plt, "close", kept.append)
+    pairs_by_case = {"case1": _pairs(5, seed=4)}
+    time_s = np.linspace(0.0, 2.0, 20)
+    mpm = np.repeat(np.stack([np.exp(-time_s), 0.1 + 0 * time_s, 1 - np.exp(-time_s)], axis=1)[None], 5, axis=0)
+    ends = np.full_like(mpm, np.nan)
+    ends[:, [0, -1]] = mpm[:, [0, -1]]
+    energies = {"time_s": time_s, "index": pairs_by_case["case1"]["index"].to_numpy(), "mpm": mpm, "gns": ends}
+    plot_parity(pairs_by_case, tmp_path / "parity.png", "end-state surrogate")
+    plot_energy_evolution(energies, best_median_worst(pairs_by_case["case1"]), "case1", tmp_path / "energy.png",
+                          "end-state surrogate")
+    parity, energy = kept
+    assert parity.axes[0].get_ylabel().startswith("end-state surrogate")
+    labels = [text.get_text() for text in energy.axes[0].get_legend().get_texts()]
+    assert labels == ["MPM (true)", "end-state surrogate (end state)"]
+    surrogate_lines = [line for line in energy.axes[0].get_lines() if line.get_label().startswith("end-state")]
+    assert len(surrogate_lines) == 1 and len(surrogate_lines[0].get_xdata()) == 2

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rgns.gate import judge, write_verdicts
+from rgns.gate import SURROGATE_NAMES, judge, write_verdicts
 from rgns.logsetup import log_to_file
 from rgns.tables import read_csv, write_csv
 from rgns.validation import best_median_worst, case_agreement, markdown_table, ok_rows, validation_table
@@ -28,13 +28,14 @@ verdicts = judge(table, summaries, settings["acceptance"], snakemake.params.cell
 write_verdicts(verdicts, snakemake.output.gate)
 for verdict in verdicts.values():
     (log.info if verdict.passed else log.warning)("%s", verdict.sentence())
-plot_histograms(pairs, snakemake.output.histograms)
-plot_parity(pairs, snakemake.output.parity)
+name = SURROGATE_NAMES[snakemake.params.surrogate]
+plot_histograms(pairs, snakemake.output.histograms, name)
+plot_parity(pairs, snakemake.output.parity, name)
 for case, energies_path, figure in zip(cases, snakemake.input.energies, snakemake.output.energy):
     candidates = pairs[case]
     if ok_rows(candidates).empty:
-        log.error("%s: every GNS rollout diverged; the energy figure shows diverged ones", case)
+        log.error("%s: every %s rollout diverged; the energy figure shows diverged ones", case, name)
         candidates = candidates.assign(gns_status="ok")
     with np.load(energies_path) as energies:
-        plot_energy_evolution(dict(energies), best_median_worst(candidates), case, figure)
+        plot_energy_evolution(dict(energies), best_median_worst(candidates), case, figure, name)
 log.info("validation table:\n%s", markdown_table(table))
