@@ -25,7 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from rgns.hazard import ZONE_LEVELS, zone_levels, zones  # noqa: E402
+from rgns.hazard import ZONE_LEVELS, exceedance_distances, zone_levels, zones  # noqa: E402
 from rgns.multifidelity import (ControlVariateEstimate, MultiFidelityError, allocate, control_variate,  # noqa: E402
                                 optimal_ratio, pairs_for_half_width, predicted_half_width,
                                 regression_control_variate, regression_point_estimate, speedup)
@@ -204,8 +204,10 @@ def write_multifidelity(low: pd.DataFrame, high: pd.DataFrame, settings: dict[st
     for key, curve in record["exceedance"].items():  # the Monte Carlo's own curve, what its map is drawn from
         values = finished[key].to_numpy(float)
         curve["simulator"] = [float(np.mean(values > d)) for d in curve["d_m"]]
-        for p, distances in curve["distances"].items():
-            distances["simulator"] = distance_at(np.array(curve["d_m"]), np.array(curve["simulator"]), float(p))
+        # its distances by the exceedance table's own estimator (rgns.hazard), so the two tables agree
+        own_distances = exceedance_distances(values, [float(p) for p in curve["distances"]], confidence=0.95)
+        for (p, distances), own_distance in zip(curve["distances"].items(), own_distances):
+            distances["simulator"] = own_distance.distance_m
     if plan is not None:
         record["plan"] = plan
     Path(outputs["json"]).write_text(json.dumps(record, indent=1, default=float) + "\n")
