@@ -77,9 +77,14 @@ def paragraph(text: str, note: bool = False) -> str:
 
 
 def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
-    """Exceedance, convergence and zoning of one Monte Carlo case; a site's map view first."""
+    """One Monte Carlo case: a site's map view, then the best estimate (the multi-fidelity correction,
+    where there is one), then the Monte Carlo's own exceedance, convergence and zoning."""
     if "map.png" in files:
         report.add(f"Site: {case} — map view", figure(files["map.png"], caption("site_map", case=case)))
+    corrected = "multifidelity.json" in files
+    if corrected:
+        multifidelity_section(report, case, files)
+    own = " (uncorrected: the Monte Carlo's simulator alone)" if corrected else ""
     exceedance = json.loads(files["exceedance.json"].read_text())
     convergence = json.loads(files["convergence.json"].read_text())
     zoning = json.loads(files["zoning.json"].read_text())
@@ -93,18 +98,16 @@ def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
     stable = f"{screened} found stable by the limit-equilibrium screen and counted as no failure; " if screened else ""
     summary = (f"{exceedance['n']} realizations used ({stable}{exceedance['not_ok']} not ok and left out); "
                f"deterministic mean-field realization: {deterministic or 'not available'}.")
-    report.add(f"Hazard: {case} — exceedance", paragraph(summary), table(distances, 2),
+    report.add(f"Hazard: {case} — exceedance{own}", paragraph(summary), table(distances, 2),
                figure(files["exceedance.png"], caption("exceedance", case=case)))
     converged = ", ".join(
         f"{metric}: " + (f"converged at n = {entry['converged_at']}" if entry["converged_at"] else
                          f"not converged within n = {entry['n']}")
         for metric, entry in convergence["metrics"].items())
-    report.add(f"Hazard: {case} — convergence", paragraph(convergence["criterion"]), paragraph(converged),
+    report.add(f"Hazard: {case} — convergence{own}", paragraph(convergence["criterion"]), paragraph(converged),
                figure(files["convergence.png"], caption("convergence", case=case)))
-    report.add(f"Hazard: {case} — zoning", table(pd.DataFrame(zoning["zones"]), 2),
+    report.add(f"Hazard: {case} — zoning{own}", table(pd.DataFrame(zoning["zones"]), 2),
                figure(files["zoning.png"], caption("zoning", case=case)))
-    if "multifidelity.json" in files:
-        multifidelity_section(report, case, files)
 
 
 def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
@@ -163,7 +166,7 @@ def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> 
             f"half-width {plan['predicted_half_width_m']:.3g} m, {verdict}."))
     parts += [table(pd.DataFrame(record["zoning"]["zones_corrected"]), 2),
               figure(files["multifidelity.png"], caption("multifidelity", case=case))]
-    report.add(f"Hazard: {case} — multi-fidelity correction", *parts)
+    report.add(f"Hazard: {case} — multi-fidelity correction: the best estimate", *parts)
 
 
 def fidelity_summary(report: Report, hazard: dict[str, dict[str, Path]]) -> None:

@@ -158,6 +158,9 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     for heading in ("Validation against MPM", "Hazard: case1 — exceedance", "Hazard: case1 — zoning",
                     "Multi-fidelity check", "Hazard: case1 — multi-fidelity correction"):
         assert heading in page
+    # the best estimate (corrected) leads the case's hazard; the Monte Carlo's own map follows, named so
+    assert page.index("Hazard: case1 — multi-fidelity correction: the best estimate") < page.index(
+        "Hazard: case1 — exceedance (uncorrected: the Monte Carlo&#x27;s simulator alone)")
     assert page.count("<img") == 3 + 1 + 3 + 4  # scenes, learning curve, validation, hazard
     # what made the page, above everything else: version, commit, config digest, time, each case's route
     lead = page.split("<h2>")[0]
