@@ -9,6 +9,7 @@ min_version("9.0")
 sys.path.insert(0, workflow.basedir)  # the rgns package of this checkout, installed or not
 
 from rgns.config import validate_config
+from rgns.integrity import dry_run, locked, sweep
 
 
 # A --configfile replaces the default config instead of being merged into it, so a smaller
@@ -32,6 +33,15 @@ include: "rules/validation.smk"
 include: "rules/montecarlo.smk"
 include: "rules/site.smk"
 include: "rules/hazard.smk"
+
+
+# Before the DAG: damaged intermediates removed (with the reason on the console), so that hazard_map,
+# which asks for every table and run folder the report rests on, makes them again (rgns/integrity.py).
+if workflow.is_main_process and not dry_run(sys.argv) and not locked():
+    sweep(folders={f"results/mpm/{name}/chunk_{k}": [f"{i}.h5" for i in chunk_members(name, k)]
+                   for name in RUN_SETS for k in chunk_ids(name)},
+          chunks={f"results/mc/{case}/{kind}chunk_{k}.csv": mc_chunk_indices(SimpleNamespace(chunk=k))
+                  for case in MC_CASES for kind in ("", "control/") for k in mc_chunk_ids(case)})
 
 
 # Light table and figure steps run where snakemake runs, not as cluster jobs of their own.
@@ -84,6 +94,7 @@ rule hazard_map:
         [] if config["gns"]["model"] == "shipped" else "results/dataset/gns/metadata.json",
         "results/report/report.html",
         expand("results/site/{case}/{name}", case=SITE["name"], name=SITE_FILES) if SITE_FILES else [],
+        report_foundations,
 
 
 rule paraview:

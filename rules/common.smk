@@ -3,6 +3,7 @@
 import json
 from dataclasses import asdict
 from pathlib import Path
+from types import SimpleNamespace
 
 from rgns.fields import FIELD_KEYS
 from rgns.geometry import DRAW_KEYS
@@ -341,3 +342,23 @@ def tuned_data_params(wildcards):
     return {"coarse": asdict(CaseInputs.from_config(seeded, wildcards.case)), "fine": asdict(fine),
             "indices": list(range(first, last)), "mpm": config["mpm"],
             "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
+
+
+def report_foundations(wildcards):
+    """The tables and run folders the report rests on, asked for by hazard_map itself: Snakemake
+    rebuilds a missing intermediate only when a target asks for it, so without this a deleted
+    realizations.csv (or MPM chunk, validation table) stayed missing beside an up-to-date report."""
+    files = []
+    for case in RUN_SETS:
+        files += set_chunks(SimpleNamespace(set=case))
+    for case in TEST_CASES:
+        files += [f"results/validation/{case}/pairs.csv", f"results/validation/{case}/energies.npz"]
+    for case in MC_CASES:
+        named = SimpleNamespace(case=case)
+        files += mc_chunks(named) + [f"results/mc/{case}/realizations.csv", f"results/mc/{case}/mean_field.csv"]
+        if MULTIFIDELITY_FILES:
+            files += mc_paired_chunks(named) + [f"results/mc/{case}/paired.csv"]
+            if CONTROL:
+                files += [f"results/mc/{case}/control/chunk_{k}.csv" for k in mc_chunk_ids(case)]
+                files += [f"results/mc/{case}/control.csv"]
+    return files

@@ -6,6 +6,7 @@ rule pack:
         "results/dataset/{set}.h5",
     params:
         compression=config["dataset"]["compression"],
+        realizations=lambda wildcards: len(set_ids(wildcards.set)),
     log:
         "logs/pack/{set}.log",
     conda:

@@ -105,47 +105,53 @@ def test_a_killed_monte_carlo_reruns_only_its_missing_chunks_and_leaves_finished
     assert (mc / "realizations.csv").read_bytes() == (built[0] / target).read_bytes()  # same table as the first run
 
 
-def test_a_truncated_dataset_stops_training_naming_the_file_and_keeps_the_mpm_results(copied):
-    workdir, config = copied
-    dataset = workdir / "results" / "dataset" / "train.h5"
-    dataset.write_bytes(dataset.read_bytes()[: dataset.stat().st_size // 2])
-    before = fingerprints(workdir, "results/geometry/**/*", "results/fields/**/*", "results/mpm/**/*.h5")
-    result = snakemake(workdir, "--cores", "2", "results/model/gns.pt", config=workdir / "config.yaml")
-    assert result.returncode != 0
-    log = (workdir / "logs" / "train" / "train.log").read_text()
-    assert f"{Path('results/dataset/train.h5')}: not a readable" in log, log
-    assert "Error in rule train" in result.stdout + result.stderr
-    assert fingerprints(workdir, "results/geometry/**/*", "results/fields/**/*", "results/mpm/**/*.h5") == before
+def truncate(path: Path) -> None:
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
 
 
-def test_a_corrupt_model_file_stops_the_monte_carlo_naming_it(copied):
-    """A changed model is validated again before the Monte Carlo may use it (the gate): the run
-    stops there, naming the file, and no Monte Carlo chunk runs."""
-    workdir, config = copied
-    (workdir / "results" / "model" / "gns.pt").write_bytes(b"not a model")
-    target = "results/mc/case1/realizations.csv"
-    table = (workdir / target).read_bytes()
-    chunk_logs = {path: path.read_text() for path in (workdir / "logs" / "mc_chunk" / "case1").glob("*.log")}
-    result = snakemake(workdir, "--cores", "2", target, config=workdir / "config.yaml")
-    assert result.returncode != 0
-    log = (workdir / "logs" / "validation_rollout" / "case1.log").read_text()
-    assert "gns.pt: not a usable GNS model file" in log, log
-    assert "Error in rule validation_rollout" in result.stdout + result.stderr
-    assert {path: path.read_text() for path in chunk_logs} == chunk_logs  # no chunk ran on the bad model
-    assert (workdir / target).read_bytes() == table  # the last good table stays until a run replaces it
-    assert scheduled(snakemake(workdir, "-n", target, config=workdir / "config.yaml")) == {"mc_chunk": 3, "mc_collect": 1}
+def garble(path: Path) -> None:
+    data = bytearray(path.read_bytes())
+    data[len(data) // 3: len(data) // 3 + 64] = b"\x00garbled by a bad copy\x00".ljust(64, b"#")
+    path.write_bytes(bytes(data))
 
 
-@pytest.mark.parametrize("damage, message", [
-    (lambda text: text[: len(text) - 20], "cut short (no newline after its last row)"),
-    (lambda text: text[: text.rindex("\n", 0, len(text) - 1) + 1], "holds realizations [2], not 2..3"),
-], ids=["mid-row", "a-whole-row"])
-def test_a_truncated_monte_carlo_chunk_is_named_when_collected(copied, damage, message):
-    workdir, config = copied
-    chunk = workdir / "results" / "mc" / "case1" / "chunk_001.csv"
-    chunk.write_text(damage(chunk.read_text()))
-    result = snakemake(workdir, "--cores", "1", "results/mc/case1/realizations.csv", config=workdir / "config.yaml")
-    assert result.returncode != 0
-    log = (workdir / "logs" / "mc_collect" / "case1.log").read_text()
-    assert f"chunk_001.csv: {message}" in log, log
-    assert (workdir / "results" / "mc" / "case1" / "chunk_000.csv").exists()
+def cut_a_row(path: Path) -> None:
+    text = path.read_text()
+    path.write_text(text[: text.rindex("\n", 0, len(text) - 1) + 1])
+
+
+FINAL_TABLES = ("results/mc/case1/realizations.csv", "results/mc/case1/paired.csv", "results/validation/case1/pairs.csv",
+                "results/report/validation/table.csv", "results/report/validation/gate.json",
+                "results/report/case1/exceedance.json", "results/report/case1/zoning.json")
+
+# (file, fault, what the console names): each found before the run, removed, made again (one of each
+# reader: the other tables, fields and scenes go through the same sweep, tests/test_integrity.py)
+FAULTS = [
+    ("results/mc/case1/realizations.csv", truncate, "results/mc/case1/realizations.csv is damaged (TableError"),
+    ("results/mc/case1/realizations.csv", Path.unlink, None),
+    ("results/mc/case1/chunk_001.csv", cut_a_row,
+     "results/mc/case1/chunk_001.csv is damaged (ValueError: holds realizations [2], not [2, 3])"),
+    ("results/mpm/case1/chunk_000/0001.h5", truncate, "results/mpm/case1/chunk_000 (its member 0001.h5) is damaged"),
+    ("results/mpm/case1/chunk_000/0001.h5", Path.unlink, "results/mpm/case1/chunk_000 lacks 0001.h5: removed"),
+    ("results/dataset/train.h5", garble, "results/dataset/train.h5 is damaged"),
+    ("results/model/gns.pt", garble, "results/model/gns.pt is damaged"),
+]
+
+
+@pytest.mark.parametrize("name, fault, announced", FAULTS,
+                         ids=[f"{Path(name).name}-{fault.__name__}" for name, fault, _ in FAULTS])
+def test_a_damaged_or_missing_intermediate_is_rebuilt_by_the_next_hazard_map(copied, built, name, fault, announced):
+    """Truncated, garbled or deleted (a member of a folder output too): the next hazard_map names it on
+    the console, makes it again and everything made from it; the final tables are byte-identical to the
+    clean run's and the report is newer than every one of them (nothing stale)."""
+    workdir, _ = copied
+    fault(workdir / name)
+    result = snakemake(workdir, "--cores", "2", "hazard_map", config=workdir / "config.yaml")
+    assert result.returncode == 0, result.stderr[-3000:]
+    if announced:
+        assert f"rgns: {announced}" in result.stderr, result.stderr[-3000:]
+    for table in FINAL_TABLES:
+        assert (workdir / table).read_bytes() == (built[0] / table).read_bytes(), table
+    report = (workdir / "results" / "report" / "report.html").stat().st_mtime_ns
+    assert all((workdir / table).stat().st_mtime_ns <= report for table in FINAL_TABLES)
+    assert scheduled(snakemake(workdir, "-n", "hazard_map", config=workdir / "config.yaml")) == {}

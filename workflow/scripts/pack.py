@@ -6,6 +6,10 @@ from rgns.trajectories import pack
 
 log = log_to_file(snakemake.log[0])
 paths = sorted(path for chunk in snakemake.input for path in Path(chunk).glob("*.h5"))
+expected = snakemake.params.realizations
+if len(paths) != expected:  # never a quiet n - 1: a chunk folder short of a trajectory is no set
+    raise ValueError(f"{', '.join(snakemake.input)}: {len(paths)} trajectories, the set has {expected}; "
+                     "run hazard_map again to make the missing ones")
 statistics, excluded = pack(paths, snakemake.output[0], snakemake.wildcards.set, snakemake.params.compression)
 for line in excluded:
     log.error("left out: %s", line)
