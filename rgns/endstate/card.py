@@ -149,6 +149,18 @@ def _serves_lines(card: dict[str, Any]) -> list[str]:
     ]
 
 
+def _validation_source(card: dict[str, Any]) -> list[str]:
+    """Where the validation table's realizations come from, when the card was validated on its own sets."""
+    section = card["config"]["endstate"].get("validation", {})
+    if not section.get("sets"):
+        return []
+    loss = card["config"]["endstate"].get("threshold_weight", 0.0)
+    trained = f"; trained with the moved / not-moved term at weight {loss:g}" if loss else ""
+    return [f"{section['realizations']} realizations per set drawn from seed {section['data_seed']} "
+            f"(`endstate.validation.data_seed`), run by the embedded MPM; R², NRMSE and bias with bootstrap 95 % "
+            f"intervals over realizations{trained}.", ""]
+
+
 def render_card(card: dict[str, Any], validation_markdown: str, validation_title: str =
                 "Validation against fresh MPM runs of the test cases") -> str:
     """The card as Markdown, with a validation table against fresh MPM runs."""
@@ -168,7 +180,7 @@ def render_card(card: dict[str, Any], validation_markdown: str, validation_title
         f"* held-out loss at the end {last['valid_loss']:.4g} against the mean predictor's "
         f"{last['valid_mean_predictor_loss']:.4g} ({last['valid_loss'] / last['valid_mean_predictor_loss']:.4f} of it)",
         "", "![learning curve](endstate_curve.png)", "",
-        f"## {validation_title}", "", validation_markdown.strip(), "",
+        f"## {validation_title}", "", *_validation_source(card), validation_markdown.strip(), "",
         "## Config it was trained with", "", "```json", json.dumps(card["config"], indent=2), "```", "",
     ]
     return "\n".join(lines)
