@@ -239,6 +239,21 @@ def provenance_line(made: dict[str, str], case_routes: dict[str, str]) -> str:
                      f"{made['config_digest']} (SHA-256 prefix) on {made['made_utc']}. Monte Carlo: {route_text}.")
 
 
+def shrinkage_notes(hazard: dict[str, dict[str, Path]], validation_summary: list[dict]) -> list[str]:
+    """Warnings, for the top of the page, wherever fewer runs entered a result than were made for it:
+    validation pairs whose learned run diverged, Monte Carlo realizations that did not finish."""
+    notes = [paragraph(f"{item['case']}: the validation compares {item['realizations'] - item['diverged']} of its "
+                       f"{item['realizations']} realizations ({item['diverged']} learned runs diverged and are left out).",
+                       note=True) for item in validation_summary if item.get("diverged")]
+    for case, files in hazard.items():
+        exceedance = json.loads(files["exceedance.json"].read_text())
+        if exceedance["not_ok"]:
+            total = exceedance["n"] + exceedance["not_ok"]
+            notes.append(paragraph(f"{case}: the hazard rests on {exceedance['n']} of {total} Monte Carlo realizations "
+                                   f"({exceedance['not_ok']} did not finish and are left out).", note=True))
+    return notes
+
+
 def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], learning_curve: Path,
                  evaluation: dict[str, Any], validation_table: pd.DataFrame, validation_summary: list[dict],
                  validation_figures: dict[str, Path], hazard: dict[str, dict[str, Path]],
@@ -247,7 +262,8 @@ def build_report(title: str, overview: dict[str, Any], scenes: dict[str, Path], 
     """The whole page: what made it, the validation gate's verdict, then configuration, model, validation,
     hazard. ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and evaluation
     these are; ``made`` the provenance (rgns.provenance)."""
-    report = Report(title, provenance_line(made, routes(list(hazard), gate or {}, surrogate)) if made else "")
+    lead = provenance_line(made, routes(list(hazard), gate or {}, surrogate)) if made else ""
+    report = Report(title, "\n".join([lead, *shrinkage_notes(hazard, validation_summary)]))
     # the table's columns named after the simulator that ran (its files call every learned simulator gns)
     validation_table = validation_table.rename(columns=lambda column: column.replace(
         "gns", SURROGATE_NAMES[surrogate].replace(" ", "_").replace("-", "_")) if column.startswith("gns") else column)

@@ -34,3 +34,16 @@ def test_captions_render_their_literals():
     from rgns.report import caption, rendered
     text = rendered(caption("scenes", set="case1"))
     assert "<code>case1</code>" in text and "``" not in text
+
+
+def test_fewer_runs_than_made_is_a_warning_at_the_top(tmp_path):
+    import json
+    from rgns.report import shrinkage_notes
+    (tmp_path / "exceedance.json").write_text(json.dumps({"n": 61, "not_ok": 3}))
+    notes = shrinkage_notes({"case1": {"exceedance.json": tmp_path / "exceedance.json"}},
+                            [{"case": "case1", "realizations": 16, "diverged": 1}, {"case": "case2", "realizations": 16,
+                                                                                   "diverged": 0}])
+    assert notes == ['<p class="note">case1: the validation compares 15 of its 16 realizations (1 learned runs '
+                     'diverged and are left out).</p>',
+                     '<p class="note">case1: the hazard rests on 61 of 64 Monte Carlo realizations (3 did not finish '
+                     'and are left out).</p>']
