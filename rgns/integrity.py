@@ -160,9 +160,10 @@ def sweep(root: str | Path = ".", folders: dict[str, list[str]] | None = None,
                     "makes it again")
                 _remove(target)
                 removed.append(target.relative_to(root).as_posix())
-                passed = {key: value for key, value in passed.items() if not key.startswith(removed[-1])}
                 continue
             passed[name] = stamp
+    passed = {key: value for key, value in passed.items()
+              if not any(key == gone or key.startswith(gone + "/") for gone in removed)}
     if (root / "results").is_dir():
         record_path.write_text(json.dumps(passed, indent=0, sort_keys=True) + "\n")
     return removed
