@@ -112,10 +112,8 @@ def _remove(path: Path) -> None:
 def _indexed(expected: list[int]) -> Callable[[Path], None]:
     """A chunk table's check: whole, and holding exactly the realizations ``expected``."""
     def check(path: Path) -> None:
-        from rgns.tables import read_csv
-        held = read_csv(path, ["index"])["index"].tolist()
-        if held != expected:
-            raise ValueError(f"holds realizations {held}, not {expected}")
+        from rgns.tables import read_chunk
+        read_chunk(path, expected)
     return check
 
 
@@ -155,7 +153,7 @@ def sweep(root: str | Path = ".", folders: dict[str, list[str]] | None = None,
             except Exception as error:  # noqa: BLE001 - any failure to read is damage
                 target = path.parent if kind.folder else path
                 what = f"{target.relative_to(root).as_posix()} (its member {path.name})" if kind.folder else name
-                reason = str(error).split("; delete it and run again")[0]  # the reader's advice, taken here
+                reason = str(error).split("; delete it and run again")[0].removeprefix(f"{path}: ")  # advice taken here
                 say(f"rgns: {what} is damaged ({type(error).__name__}: {reason}); removed, so that this run "
                     "makes it again")
                 _remove(target)

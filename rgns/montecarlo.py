@@ -36,7 +36,7 @@ from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_me
 from rgns.mpm.solver import EngineSettings, RunResult, run_batch
 from rgns.realizations import FINISHED, MEAN_FIELD, CaseInputs, Realization, draw_realization, mean_field_realization
 from rgns.screening import ScreenSettings, minimum_factor_of_safety
-from rgns.tables import TableError, read_csv
+from rgns.tables import TableError, read_chunk
 from rgns.trajectories import frame_count
 
 SIMULATORS = ("gns", "endstate", "mpm")
@@ -131,11 +131,8 @@ def collect_chunks(paths: list[str], realizations: int, chunk_size: int) -> pd.D
         raise TableError(f"{len(paths)} chunk tables for {realizations} realizations in chunks of {chunk_size}")
     tables = []
     for k, path in enumerate(paths):
-        table = read_csv(path, COLUMNS)
         expected = list(range(k * chunk_size, min((k + 1) * chunk_size, realizations)))
-        if sorted(table["index"].tolist()) != expected:
-            raise TableError(f"{path}: holds realizations {table['index'].tolist()}, not {expected[0]}..{expected[-1]} "
-                             "(cut short, or from another montecarlo config); delete it and run again")
+        table = read_chunk(path, expected, COLUMNS)
         tables.append(table)
     return pd.concat(tables, ignore_index=True).sort_values("index", kind="stable").reset_index(drop=True)
 

@@ -43,3 +43,14 @@ def read_csv(path: str | Path, columns: list[str] | None = None) -> pd.DataFrame
     if missing:
         raise TableError(f"{path}: missing column(s) {missing}")
     return table
+
+
+def read_chunk(path: str | Path, expected: list[int], columns: list[str] | None = None) -> pd.DataFrame:
+    """A Monte Carlo chunk table, checked to be whole and to hold exactly the realizations ``expected``
+    (one cut short, or left over from another montecarlo config, is named)."""
+    table = read_csv(path, columns or ["index"])
+    held = sorted(table["index"].tolist())
+    if held != list(expected):
+        raise TableError(f"{path}: holds realizations {held}, not {list(expected)} (cut short, or from another "
+                         "montecarlo config); delete it and run again")
+    return table

@@ -130,7 +130,7 @@ FAULTS = [
     ("results/mc/case1/realizations.csv", truncate, "results/mc/case1/realizations.csv is damaged (TableError"),
     ("results/mc/case1/realizations.csv", Path.unlink, None),
     ("results/mc/case1/chunk_001.csv", cut_a_row,
-     "results/mc/case1/chunk_001.csv is damaged (ValueError: holds realizations [2], not [2, 3])"),
+     "results/mc/case1/chunk_001.csv is damaged (TableError: holds realizations [2], not [2, 3] (cut short"),
     ("results/mpm/case1/chunk_000/0001.h5", truncate, "results/mpm/case1/chunk_000 (its member 0001.h5) is damaged"),
     ("results/mpm/case1/chunk_000/0001.h5", Path.unlink, "results/mpm/case1/chunk_000 lacks 0001.h5: removed"),
     ("results/dataset/train.h5", garble, "results/dataset/train.h5 is damaged"),
