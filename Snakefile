@@ -48,6 +48,7 @@ if workflow.is_main_process and not dry_run(sys.argv) and not locked():
 localrules:
     mc_collect,
     mc_paired_collect,
+    mc_coarse_collect,
     mc_control_collect,
     paired_plan,
     exceedance,

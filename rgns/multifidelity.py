@@ -242,6 +242,25 @@ def regression_control_variate(high: np.ndarray, low: np.ndarray, thresholds: np
         bias=combined_mean([c[:n] for c in l_columns]) - high_mean, n_paired=n, n_low=big_n, confidence=confidence)
 
 
+def rearranged(probability: np.ndarray) -> np.ndarray:
+    """An exceedance curve made a probability and non-increasing by sorting its values (the monotone
+    rearrangement of Chernozhukov, Fernandez-Val & Galichon 2010: it never moves the curve further
+    from the true one, which is non-increasing); a control-variate estimate need not be either."""
+    return np.sort(np.clip(np.asarray(probability, dtype=float), 0.0, 1.0))[::-1]
+
+
+def corrected_affected_probability(high: np.ndarray, low: np.ndarray, x_m: np.ndarray) -> np.ndarray:
+    """P(x affected) = P(front ≥ x) − P(back scarp > x) from pairs ``high`` [n, 2] and cheap runs ``low``
+    [N, 2] (front, rear; the first n paired), each term rearranged to be non-increasing in x before
+    the difference: estimated as one, the difference wiggles where the terms overlap, and a wiggle
+    across a zoning threshold drew an island (a 0.75 m "extremely low" stretch inside "low")."""
+    n = len(high)
+    terms = [rearranged(regression_point_estimate(high[:, [k]], low[:n, [k]], low[n:, [k]] if len(low) > n else None,
+                                                  x_m, inclusive=np.array([inclusive])))
+             for k, inclusive in ((0, True), (1, False))]
+    return np.clip(terms[0] - terms[1], 0.0, 1.0)
+
+
 def exceedance_indicators(values: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
     """[N, T] indicators 1[value > threshold]: their means are the exceedance probabilities."""
     return (np.asarray(values, dtype=float)[:, None] > np.asarray(thresholds, dtype=float)[None, :]).astype(float)

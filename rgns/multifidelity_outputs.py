@@ -25,10 +25,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from rgns.mesh_extrapolation import converged  # noqa: E402
 from rgns.hazard import ZONE_LEVELS, exceedance_distances, zone_levels, zones  # noqa: E402
 from rgns.multifidelity import (ControlVariateEstimate, MultiFidelityError, allocate, control_variate,  # noqa: E402
-                                optimal_ratio, pairs_for_half_width, predicted_half_width,
-                                regression_control_variate, regression_point_estimate, speedup)
+                                corrected_affected_probability, optimal_ratio, pairs_for_half_width,
+                                predicted_half_width, rearranged, regression_control_variate, speedup)
 from rgns.realizations import FINISHED  # noqa: E402
 
 METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
@@ -58,25 +59,6 @@ def costs(low_benchmarks: list[str], n_low: int, high_benchmarks: list[str], n_h
 def _estimate_record(estimate: ControlVariateEstimate) -> dict[str, Any]:
     return {key: np.asarray(getattr(estimate, key)).tolist() for key in
             ("estimate", "lower", "upper", "high_mean", "low_mean", "weight", "correlation", "bias")}
-
-
-def rearranged(probability: np.ndarray) -> np.ndarray:
-    """An exceedance curve made a probability and non-increasing by sorting its values (the monotone
-    rearrangement of Chernozhukov, Fernandez-Val & Galichon 2010: it never moves the curve further
-    from the true one, which is non-increasing); a control-variate estimate need not be either."""
-    return np.sort(np.clip(np.asarray(probability, dtype=float), 0.0, 1.0))[::-1]
-
-
-def affected_probability(high: np.ndarray, low: np.ndarray, x_m: np.ndarray) -> np.ndarray:
-    """P(x affected) = P(front ≥ x) − P(back scarp > x) from pairs ``high`` [n, 2] and cheap runs ``low``
-    [N, 2] (front, rear; the first n paired), each term rearranged to be non-increasing in x before
-    the difference: estimated as one, the difference wiggles where the terms overlap, and a wiggle
-    across a zoning threshold drew an island (a 0.75 m "extremely low" stretch inside "low")."""
-    n = len(high)
-    terms = [rearranged(regression_point_estimate(high[:, [k]], low[:n, [k]], low[n:, [k]] if len(low) > n else None,
-                                                  x_m, inclusive=np.array([inclusive])))
-             for k, inclusive in ((0, True), (1, False))]
-    return np.clip(terms[0] - terms[1], 0.0, 1.0)
 
 
 def distance_at(d_m: np.ndarray, probability: np.ndarray, p: float) -> float | None:
@@ -113,7 +95,7 @@ def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cos
     ends_high, ends_low = high[["front_x_m", "rear_x_m"]].to_numpy(float), low[["front_x_m", "rear_x_m"]].to_numpy(float)
     estimate = regression_control_variate(ends_high, ends_low, x_m, signs=[1.0, -1.0], inclusive=[True, False],
                                           confidence=confidence, seed=seed)
-    probability, uncorrected = affected_probability(ends_high, ends_low, x_m), estimate.low_mean
+    probability, uncorrected = corrected_affected_probability(ends_high, ends_low, x_m), estimate.low_mean
     thresholds = settings["thresholds"]
     record["zoning"] = {
         "x_m": x_m.tolist(), "uncorrected": uncorrected.tolist(), "corrected": probability.tolist(),
@@ -149,6 +131,12 @@ def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
                     label="Monte Carlo's simulator (its map)")
         ax.step(d, curve["paired_high"], where="post", color="k", linestyle=":",
                 label=f"accurate MPM alone (n = {record['n_paired']})")
+        drawn = [(float(p), e) for p, e in record.get("converged", {}).get("distances", {}).get(key, {}).items()
+                 if None not in (e["estimate"], e["lower"], e["upper"])]
+        for k, (p, entry) in enumerate(drawn):
+            ax.errorbar([entry["estimate"]], [p], xerr=[[entry["estimate"] - entry["lower"]],
+                        [entry["upper"] - entry["estimate"]]], fmt="D", color="C2", capsize=3,
+                        label=None if k else "converged mesh: exceeded with P")
         ax.set_xlabel(f"{METRICS[key]} (m)")
         ax.set_ylabel("exceedance probability")
         ax.set_ylim(-0.02, 1.02)
@@ -158,10 +146,14 @@ def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
     ax.plot(zoning["x_m"], zoning["uncorrected"], color="C0", label="cheap route")
     ax.plot(zoning["x_m"], zoning["corrected"], color="C3", label="corrected")
     ax.fill_between(zoning["x_m"], zoning["lower"], zoning["upper"], color="C3", alpha=0.2)
+    if "converged" in record:
+        ax.plot(zoning["x_m"], record["converged"]["zoning"]["probability"], color="C2", label="converged mesh")
+        ax.legend(fontsize=7)
     ax.set_xlabel("x along the section (m)")
     ax.set_ylabel("P(affected)")
     ax.set_ylim(-0.02, 1.02)
-    fig.suptitle(f"{case}: multi-fidelity correction towards the MPM at {record['high_cell_size_m']:g} m cells")
+    fig.suptitle(f"{case}: multi-fidelity correction towards the MPM at {record['high_cell_size_m']:g} m cells"
+                 + (", and carried to the converged mesh" if "converged" in record else ""))
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -192,10 +184,13 @@ def plan_pairs(low: pd.DataFrame, pilot: pd.DataFrame, settings: dict[str, Any])
 
 def write_multifidelity(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float],
                         outputs: dict[str, str], case: str, plan: dict[str, Any] | None = None,
-                        simulator: pd.DataFrame | None = None) -> dict[str, Any]:
-    """Correct, then write the JSON (with the paired-run ``plan`` where one chose the pairs, and the Monte
-    Carlo's own means and curves: its ``simulator`` table where that is not the cheap route) and the figure."""
+                        simulator: pd.DataFrame | None = None, coarse: pd.DataFrame | None = None) -> dict[str, Any]:
+    """Correct, then write the JSON (with the paired-run ``plan`` where one chose the pairs, the Monte
+    Carlo's own means and curves: its ``simulator`` table where that is not the cheap route, and with the
+    pairs at the Monte Carlo's mesh, ``coarse``, the estimates at the converged mesh) and the figure."""
     record = correct(low, high, settings, cost)
+    if coarse is not None and settings.get("mesh_order"):
+        record["converged"] = converged(low, high, coarse, settings, record)
     record["levels"] = list(ZONE_LEVELS)
     own = simulator if simulator is not None else low
     record["cheap_is_simulator"] = simulator is None

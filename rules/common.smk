@@ -210,6 +210,24 @@ def mc_paired_case_params(wildcards):
     return asdict(accurate_case_inputs(config, wildcards.case, config["montecarlo"]["fidelity"]["high_cell_size_m"]))
 
 
+# with montecarlo.fidelity.mesh_order the pairs run once more at the Monte Carlo's mesh, to extrapolate
+EXTRAPOLATE = bool(config["montecarlo"]["fidelity"]["paired"] and config["montecarlo"]["fidelity"]["mesh_order"])
+
+
+def mc_coarse_case_params(wildcards):
+    """A case drawn at the Monte Carlo's own mesh as the accurate one is drawn (the field on the same grid)."""
+    return asdict(accurate_case_inputs(config, wildcards.case, config["mesh"]["cell_size_m"]))
+
+
+def mc_coarse_chunks(wildcards):
+    """The paired chunks' realizations, by the MPM at the Monte Carlo's mesh."""
+    return [path.replace("/paired/", "/paired_coarse/") for path in mc_paired_chunks(wildcards)]
+
+
+def mc_coarse_table(wildcards):
+    return [f"results/mc/{wildcards.case}/paired_coarse.csv"] if EXTRAPOLATE else []
+
+
 # the correction's cheap model: the Monte Carlo's own runs, or the tuned end-state surrogate's (mc_control_chunk)
 CONTROL = config["montecarlo"]["fidelity"]["cheap"] == "tuned"
 CHEAP_TABLE = "results/mc/{case}/control.csv" if CONTROL else "results/mc/{case}/realizations.csv"
@@ -241,6 +259,7 @@ def multifidelity_params(wildcards):
         "low_benchmarks": [f"results/mc/{case}/{'control/' if CONTROL else ''}chunk_{k}.benchmark.tsv"
                            for k in mc_chunk_ids(case)],
         "cheap_route": CHEAP_ROUTE,
+        "coarse_cell_size_m": config["mesh"]["cell_size_m"],
         "high_benchmark_pattern": f"results/mc/{case}/paired/chunk_{{chunk:03d}}.benchmark.tsv",
         "chunk_size": config["montecarlo"]["chunk_size"],
     }
@@ -358,6 +377,8 @@ def report_foundations(wildcards):
         files += mc_chunks(named) + [f"results/mc/{case}/realizations.csv", f"results/mc/{case}/mean_field.csv"]
         if MULTIFIDELITY_FILES:
             files += mc_paired_chunks(named) + [f"results/mc/{case}/paired.csv"]
+            if EXTRAPOLATE:
+                files += mc_coarse_chunks(named) + mc_coarse_table(named)
             if CONTROL:
                 files += [f"results/mc/{case}/control/chunk_{k}.csv" for k in mc_chunk_ids(case)]
                 files += [f"results/mc/{case}/control.csv"]

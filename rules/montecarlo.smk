@@ -88,6 +88,32 @@ rule mc_paired_chunk:
         "../workflow/scripts/mc_chunk.py"
 
 
+rule mc_coarse_chunk:
+    """With montecarlo.fidelity.mesh_order: the paired chunk's realizations once more, by the MPM at the
+    Monte Carlo's own mesh (mesh.cell_size_m): the coarser of the two meshes whose paired difference, at
+    the measured order, extrapolates the accurate MPM to the converged mesh."""
+    input:
+        model=[],
+        gate=[],
+    output:
+        "results/mc/{case}/paired_coarse/chunk_{chunk}.csv",
+    params:
+        inputs=mc_coarse_case_params,
+        run=mc_paired_run_params,
+        indices=mc_paired_chunk_indices,
+    log:
+        "logs/mc_coarse_chunk/{case}/chunk_{chunk}.log",
+    benchmark:
+        "results/mc/{case}/paired_coarse/chunk_{chunk}.benchmark.tsv"
+    threads: config["montecarlo"]["threads"]
+    resources:
+        mem_mb=2000,
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/mc_chunk.py"
+
+
 rule mc_control_chunk:
     """With montecarlo.fidelity.cheap tuned: the chunk's realizations by the end-state surrogate tuned to the
     accurate MPM, the control variate of the correction (no gate: a poor control widens the intervals, it
@@ -131,6 +157,24 @@ rule mc_control_collect:
         "../workflow/scripts/mc_collect.py"
 
 
+rule mc_coarse_collect:
+    """Concatenate a case's coarse paired chunk tables (the same chunks as mc_paired_collect's)."""
+    input:
+        mc_coarse_chunks,
+    output:
+        "results/mc/{case}/paired_coarse.csv",
+    params:
+        realizations=None if ADAPTIVE_PAIRS else config["montecarlo"]["fidelity"]["paired"],
+        limit=config["montecarlo"]["realizations"],
+        chunk_size=config["montecarlo"]["chunk_size"],
+    log:
+        "logs/mc_coarse_collect/{case}.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/mc_collect.py"
+
+
 checkpoint paired_plan:
     """With montecarlo.fidelity.target_half_width_m: how many realizations to pair, in whole chunks, from
     the pilot pairs' spread and correlation and the cheap Monte Carlo (rgns.multifidelity_outputs.plan_pairs)."""
@@ -168,11 +212,13 @@ rule mc_paired_collect:
 
 
 rule multifidelity:
-    """A case's exceedance curves, zoning and means corrected towards the accurate MPM (control variates)."""
+    """A case's exceedance curves, zoning and means corrected towards the accurate MPM (control variates),
+    and with montecarlo.fidelity.mesh_order carried to the converged mesh (rgns/mesh_extrapolation.py)."""
     input:
         realizations=CHEAP_TABLE,
         simulator="results/mc/{case}/realizations.csv",
         paired="results/mc/{case}/paired.csv",
+        coarse=mc_coarse_table,
         plan=mc_paired_plan,
     output:
         json="results/report/{case}/multifidelity.json",

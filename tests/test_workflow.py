@@ -43,6 +43,9 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
                     "mc_mean_field": mc_cases, "mc_collect": mc_cases, "exceedance": mc_cases, "zoning": mc_cases,
                     "mc_paired_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
                     "mc_paired_collect": mc_cases, "multifidelity": mc_cases, "report": 1, "hazard_map": 1,
+                    # the pairs again at the Monte Carlo's mesh: the coarser level of the mesh extrapolation
+                    "mc_coarse_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
+                    "mc_coarse_collect": mc_cases,
                     # the correction's control variate: the shipped tuned surrogate on every realization
                     "shipped_tuned_endstate": 1,
                     "mc_control_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
@@ -159,7 +162,7 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
                     "Multi-fidelity check", "Hazard: case1 — multi-fidelity correction"):
         assert heading in page
     # the best estimate (corrected) leads the case's hazard; the Monte Carlo's own map follows, named so
-    assert page.index("Hazard: case1 — multi-fidelity correction: the best estimate") < page.index(
+    assert page.index("Hazard: case1 — multi-fidelity correction and mesh extrapolation: the best estimate") < page.index(
         "Hazard: case1 — exceedance (uncorrected: the Monte Carlo&#x27;s simulator alone)")
     assert page.count("<img") == 3 + 1 + 3 + 4  # scenes, learning curve, validation, hazard
     # what made the page, above everything else: version, commit, config digest, time, each case's route
@@ -172,6 +175,14 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     multifidelity = json.loads((results / "report" / "case1" / "multifidelity.json").read_text())
     assert (multifidelity["n_paired"], multifidelity["n_low"]) == (2, 6)
     assert multifidelity["cost"]["high_s"] > multifidelity["cost"]["low_s"] > 0
+    # and once more by the MPM at the Monte Carlo's 1 m mesh: the coarse level of the mesh extrapolation
+    coarse = read_csv(results / "mc" / "case1" / "paired_coarse.csv")
+    assert list(coarse["index"]) == [0, 1] and (coarse["n_particles"] == 120).all()
+    extrapolated = multifidelity["converged"]
+    assert extrapolated["n_pairs"] == 2 and extrapolated["order"] == config["montecarlo"]["fidelity"]["mesh_order"]
+    runout = extrapolated["means"]["runout_m"]
+    assert runout["estimate"] == pytest.approx(runout["accurate"] + runout["mesh_step"])
+    assert "carried to the converged mesh" in page and "multi-fidelity correction and mesh extrapolation" in page
 
 
 def test_a_target_half_width_pairs_the_chunks_the_checkpoint_chose_and_keeps_the_pilot(built, tmp_path):

@@ -20,10 +20,16 @@ else:  # chunks made before their runs were timed
     cost = {"low_s": float("nan"), "high_s": float("nan")}
     log.warning("some chunks have no benchmark file: the cost of each route is not known")
 plan = json.loads(Path(snakemake.input.plan[0]).read_text()) if snakemake.input.plan else None
+coarse = read_csv(snakemake.input.coarse[0]) if snakemake.input.coarse else None
 record = write_multifidelity(low, high, settings, cost, dict(snakemake.output.items()), snakemake.wildcards.case, plan,
-                             simulator)
+                             simulator, coarse)
 runout = record["means"]["runout_m"]
 log.info("%s: mean R corrected %.3f m [%.3f, %.3f] from the cheap %.3f m (bias over %d pairs %+.3f m, "
          "correlation %.3f); %.2f s vs %.2f s per realization", snakemake.wildcards.case, runout["estimate"],
          runout["lower"], runout["upper"], runout["low_mean"], record["n_paired"], runout["bias"],
          runout["correlation"], cost["low_s"], cost["high_s"])
+if "converged" in record:
+    runout = record["converged"]["means"]["runout_m"]
+    log.info("%s: mean R at the converged mesh %.3f m [%.3f, %.3f] (mesh step %+.3f m, %+.3f to %+.3f over the order's "
+             "interval)", snakemake.wildcards.case, runout["estimate"], runout["lower"], runout["upper"],
+             runout["mesh_step"], *runout["mesh_step_range"])
