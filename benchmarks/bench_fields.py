@@ -7,6 +7,7 @@ method through the real seeded per-realization path; the dense Cholesky factoris
 full 3,600 x 3,600 covariance; the time per field factoring each time (as the paper's ~73 min
 for 10,000 implies); N fields with one dense factor reused; and the ratios.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -20,8 +21,12 @@ import numpy as np
 
 from rgns.fields import CholeskySampler, FieldGrid, realize_fields
 
-GROUP = {"friction_mean_deg": [20.0, 35.0], "friction_std_deg": 5.0,
-         "correlation_length_x_m": 50.0, "correlation_length_y_m": 30.0}
+GROUP = {
+    "friction_mean_deg": [20.0, 35.0],
+    "friction_std_deg": 5.0,
+    "correlation_length_x_m": 50.0,
+    "correlation_length_y_m": 30.0,
+}
 BOUNDS = (5.0, 60.0)
 
 
@@ -79,14 +84,22 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2) + "\n")
     print(f"grid {grid.shape[0]} x {grid.shape[1]} ({grid.shape[0] * grid.shape[1]} points), {args.count} fields")
-    print(f"kronecker: {kronecker_s:.2f} s total, {result['kronecker_per_field_ms']:.3f} ms per field "
-          f"(target <= 30 s: {'met' if kronecker_s <= 30.0 else 'MISSED'})")
-    print(f"cholesky : factor {factor_s:.2f} s; {cholesky_per_field_s:.2f} s per field as the paper ran it "
-          f"(factor + sample); {result['cholesky_total_estimate_s'] / 60:.1f} min for {args.count}")
-    print(f"cholesky : {reused_s:.2f} s for {args.count} fields with one factor reused "
-          f"(the fastest dense route), Kronecker {result['speedup_vs_factor_reused']:.1f}x faster")
-    print(f"ratio    : Kronecker is {result['speedup_per_field']:.0f}x faster per field than the paper's "
-          f"factor-per-field Cholesky")
+    print(
+        f"kronecker: {kronecker_s:.2f} s total, {result['kronecker_per_field_ms']:.3f} ms per field "
+        f"(target <= 30 s: {'met' if kronecker_s <= 30.0 else 'MISSED'})"
+    )
+    print(
+        f"cholesky : factor {factor_s:.2f} s; {cholesky_per_field_s:.2f} s per field as the paper ran it "
+        f"(factor + sample); {result['cholesky_total_estimate_s'] / 60:.1f} min for {args.count}"
+    )
+    print(
+        f"cholesky : {reused_s:.2f} s for {args.count} fields with one factor reused "
+        f"(the fastest dense route), Kronecker {result['speedup_vs_factor_reused']:.1f}x faster"
+    )
+    print(
+        f"ratio    : Kronecker is {result['speedup_per_field']:.0f}x faster per field than the paper's "
+        f"factor-per-field Cholesky"
+    )
     print(f"wrote {args.out}")
 
 

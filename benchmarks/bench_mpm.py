@@ -11,6 +11,7 @@ Errors are against the fine-dt reference(s): runout distance R, sliding volume V
 distance I (1 m threshold) and the mean final particle position. Results go to
 ``benchmarks/results/mpm.json`` and ``mpm.md``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,8 +37,11 @@ from rgns.reference_cases import failing_slope
 
 def metrics(case: Case, final: np.ndarray, crest: float) -> dict[str, float]:
     initial = case.positions
-    return {"R": runout_distance(initial, final), "V": sliding_volume(initial, final, case.volumes),
-            "I": influence_distance(initial, final, crest)}
+    return {
+        "R": runout_distance(initial, final),
+        "V": sliding_volume(initial, final, case.volumes),
+        "I": influence_distance(initial, final, crest),
+    }
 
 
 def errors(case: Case, final: np.ndarray, reference: np.ndarray, crest: float) -> dict[str, float]:
@@ -53,8 +57,12 @@ def timed_embedded(case: Case, settings: EngineSettings, batch: int, duration: f
     wall = time.perf_counter() - start
     steps = results[0].steps
     return results[0].positions[-1], {
-        "batch": batch, "wall_s": wall, "per_realization_s": wall / batch, "steps": steps,
-        "stopped_at_s": results[0].stopped_at_s, "status": results[0].status,
+        "batch": batch,
+        "wall_s": wall,
+        "per_realization_s": wall / batch,
+        "steps": steps,
+        "stopped_at_s": results[0].stopped_at_s,
+        "status": results[0].status,
         "particle_steps_per_s": batch * len(case.positions) * steps / wall,
     }
 
@@ -78,19 +86,26 @@ def timed_cbgeo(case_dir: Path, work: Path, binary: str, dt: float | None, label
     trajectory = trajectory_from_cbgeo(case, raw, label, {})
     nsteps = case.meta["nsteps"]
     return trajectory.positions[-1], {
-        "dt_s": case.meta["dt_s"], "wall_s": wall, "per_realization_s": wall, "steps": nsteps,
+        "dt_s": case.meta["dt_s"],
+        "wall_s": wall,
+        "per_realization_s": wall,
+        "steps": nsteps,
         "particle_steps_per_s": len(case.positions) * nsteps / wall,
     }
 
 
 def table(rows: dict[str, dict]) -> str:
-    lines = ["| run | wall (s) | per realization (s) | steps | particle-steps/s | R err | V err | I err | mean pos. err (m) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| run | wall (s) | per realization (s) | steps | particle-steps/s | R err | V err | I err | mean pos. err (m) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for name, row in rows.items():
-        lines.append(f"| {name} | {row['wall_s']:.1f} | {row['per_realization_s']:.2f} | {row['steps']} | "
-                     f"{row['particle_steps_per_s']:.3g} | {row.get('R_rel_error', 0):.1%} | "
-                     f"{row.get('V_rel_error', 0):.1%} | {row.get('I_rel_error', 0):.1%} | "
-                     f"{row.get('mean_position_error_m', 0):.3f} |")
+        lines.append(
+            f"| {name} | {row['wall_s']:.1f} | {row['per_realization_s']:.2f} | {row['steps']} | "
+            f"{row['particle_steps_per_s']:.3g} | {row.get('R_rel_error', 0):.1%} | "
+            f"{row.get('V_rel_error', 0):.1%} | {row.get('I_rel_error', 0):.1%} | "
+            f"{row.get('mean_position_error_m', 0):.3f} |"
+        )
     return "\n".join(lines)
 
 
@@ -128,20 +143,32 @@ def main() -> None:
             extra["cbgeo_vs_cbgeo_reference"] = errors(case, cbgeo_final, cbgeo_reference, crest)
             extra["embedded_vs_cbgeo_reference"] = errors(case, finals[1], cbgeo_reference, crest)
         extra["speedup_per_realization_batched_vs_cbgeo"] = (
-            rows["cbgeo"]["per_realization_s"] / rows[f"embedded_B{args.batch}"]["per_realization_s"])
+            rows["cbgeo"]["per_realization_s"] / rows[f"embedded_B{args.batch}"]["per_realization_s"]
+        )
 
     text = table(rows)
     for name, value in extra.items():
-        text += f"\n\n{name}: " + (f"{value:.1f}x (target >= 20x)" if isinstance(value, float) else
-                                   ", ".join(f"{k} {v:.3g}" for k, v in value.items()))
-    summary = {"case_particles": len(case.positions), "duration_s": duration, "machine": platform.machine(),
-               "torch": torch.__version__, "threads": 1, "rows": rows, "extra": extra}
+        text += f"\n\n{name}: " + (
+            f"{value:.1f}x (target >= 20x)"
+            if isinstance(value, float)
+            else ", ".join(f"{k} {v:.3g}" for k, v in value.items())
+        )
+    summary = {
+        "case_particles": len(case.positions),
+        "duration_s": duration,
+        "machine": platform.machine(),
+        "torch": torch.__version__,
+        "threads": 1,
+        "rows": rows,
+        "extra": extra,
+    }
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "mpm.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     command = "python benchmarks/bench_mpm.py " + " ".join(sys.argv[1:])
     (args.out / "mpm.md").write_text(
         f"# Embedded MPM vs CB-Geo ({len(case.positions)} particles, {duration:g} s simulated)\n\n"
-        f"Command: `{command.strip()}`\n\n{text}\n")
+        f"Command: `{command.strip()}`\n\n{text}\n"
+    )
     print(text)
 
 

@@ -10,6 +10,7 @@ directory into a scratch folder and read back). Prints the time per realization 
 of the repeats), the ratio, the time of the case set-up alone, and whether the trajectories are
 identical (they must be: the files hold every digit).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -64,13 +65,19 @@ def main() -> None:
             total[route].append((end - start) / len(batch))
             positions[route] = [result.positions for result in results]
     identical = all(np.array_equal(a, b) for a, b in zip(positions["memory"], positions["disk"]))
-    print(f"{len(batch)} case-1 realizations, {duration:g} s simulated, {settings.shape_function} shape functions, "
-          f"median of {args.repeats} repeats, one thread")
+    print(
+        f"{len(batch)} case-1 realizations, {duration:g} s simulated, {settings.shape_function} shape functions, "
+        f"median of {args.repeats} repeats, one thread"
+    )
     for route in ("memory", "disk"):
-        print(f"  {route:6s}: {statistics.median(total[route]):.3f} s per realization "
-              f"(case set-up {1000 * statistics.median(setup[route]):.1f} ms)")
-    print(f"  disk / memory: {statistics.median(total['disk']) / statistics.median(total['memory']):.3f}x; "
-          f"trajectories identical: {identical}")
+        print(
+            f"  {route:6s}: {statistics.median(total[route]):.3f} s per realization "
+            f"(case set-up {1000 * statistics.median(setup[route]):.1f} ms)"
+        )
+    print(
+        f"  disk / memory: {statistics.median(total['disk']) / statistics.median(total['memory']):.3f}x; "
+        f"trajectories identical: {identical}"
+    )
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ Per metric and probability: each run's exceedance distance with its confidence i
 whether each lies inside the other's interval (an unresolved bound counts as open); then, realization
 by realization (the second run as the truth), R² and the relative bias of the mean for R, V and I.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,24 +34,32 @@ def interval(distance: dict) -> str:
 
 def exceedance_table(first: dict, second: dict, names: tuple[str, str]) -> str:
     """The two runs' exceedance distances and whether they agree, as Markdown."""
-    lines = [f"| metric | P | {names[0]} (m) [95 % CI] | {names[1]} (m) [95 % CI] | each inside the other's CI |",
-             "|---|---:|---|---|---|"]
+    lines = [
+        f"| metric | P | {names[0]} (m) [95 % CI] | {names[1]} (m) [95 % CI] | each inside the other's CI |",
+        "|---|---:|---|---|---|",
+    ]
     for metric, block in first["metrics"].items():
         others = {d["probability"]: d for d in second["metrics"][metric]["distances"]}
         for d in block["distances"]:
             o = others[d["probability"]]
-            agree = inside(d["distance_m"], o["lower_m"], o["upper_m"]) and inside(o["distance_m"], d["lower_m"],
-                                                                                   d["upper_m"])
-            lines.append(f"| {metric} | {d['probability']} | {interval(d)} | {interval(o)} | {'yes' if agree else 'no'} |")
+            agree = inside(d["distance_m"], o["lower_m"], o["upper_m"]) and inside(
+                o["distance_m"], d["lower_m"], d["upper_m"]
+            )
+            lines.append(
+                f"| {metric} | {d['probability']} | {interval(d)} | {interval(o)} | {'yes' if agree else 'no'} |"
+            )
     return "\n".join(lines)
 
 
 def agreement_lines(first: pd.DataFrame, second: pd.DataFrame) -> list[str]:
     """R² and the relative bias of the mean of ``first`` against ``second``, realization by realization."""
     joined = first.add_suffix("_first").join(second.add_suffix("_second"), how="inner")
-    return [f"{key}: n {len(joined)}, R² {r_squared(joined[key + '_second'].to_numpy(), joined[key + '_first'].to_numpy()):.3f}, "
-            f"mean {joined[key + '_first'].mean():.3f} vs {joined[key + '_second'].mean():.3f} "
-            f"({joined[key + '_first'].mean() / joined[key + '_second'].mean() - 1:+.2%})" for key in METRICS]
+    return [
+        f"{key}: n {len(joined)}, R² {r_squared(joined[key + '_second'].to_numpy(), joined[key + '_first'].to_numpy()):.3f}, "
+        f"mean {joined[key + '_first'].mean():.3f} vs {joined[key + '_second'].mean():.3f} "
+        f"({joined[key + '_first'].mean() / joined[key + '_second'].mean() - 1:+.2%})"
+        for key in METRICS
+    ]
 
 
 def main() -> None:
@@ -60,9 +69,14 @@ def main() -> None:
     parser.add_argument("--case", default="case1")
     parser.add_argument("--names", nargs=2, default=("first", "second"))
     args = parser.parse_args()
-    read = lambda run: json.loads((run / "results" / "report" / args.case / "exceedance.json").read_text())
-    table = lambda run: pd.read_csv(run / "results" / "mc" / args.case / "realizations.csv",
-                                    index_col="index").query("status == 'ok'")[list(METRICS)]
+
+    def read(run: Path) -> dict:
+        return json.loads((run / "results" / "report" / args.case / "exceedance.json").read_text())
+
+    def table(run: Path) -> pd.DataFrame:
+        realizations = pd.read_csv(run / "results" / "mc" / args.case / "realizations.csv", index_col="index")
+        return realizations.query("status == 'ok'")[list(METRICS)]
+
     print(exceedance_table(read(args.first), read(args.second), tuple(args.names)))
     print("\n".join(agreement_lines(table(args.first), table(args.second))))
 

@@ -24,6 +24,7 @@ of the converged value f* = f₁ + (f₁ − f₂)/(2^p − 1), and each level's
 differences do not shrink there is no asymptotic range and the error is given against the finest
 level only. Writes ``convergence.md`` and ``convergence.png`` into benchmarks/results/.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -76,12 +77,30 @@ def slope_inputs(config: dict, cell_size_m: float, particles_per_cell: int | Non
     return CaseInputs.from_config(config, "case1")
 
 
-def uniform(vertices: np.ndarray, friction_deg: float, cell_size_m: float, length_m: float, height_m: float,
-            particles_per_cell: int = 2, index: int = 0) -> Realization:
+def uniform(
+    vertices: np.ndarray,
+    friction_deg: float,
+    cell_size_m: float,
+    length_m: float,
+    height_m: float,
+    particles_per_cell: int = 2,
+    index: int = 0,
+) -> Realization:
     """A realization of one polygon of uniform soil."""
     positions, volumes = seed_particles(vertices, cell_size_m, particles_per_cell)
-    scene = Scene("convergence", index, "polygon", vertices, positions, volumes, length_m, height_m, cell_size_m,
-                  particles_per_cell, 0)
+    scene = Scene(
+        "convergence",
+        index,
+        "polygon",
+        vertices,
+        positions,
+        volumes,
+        length_m,
+        height_m,
+        cell_size_m,
+        particles_per_cell,
+        0,
+    )
     return Realization(index, scene, np.full(len(positions), friction_deg))
 
 
@@ -91,8 +110,17 @@ def simulate(config: dict, batch: list[Realization], mpm: dict, duration_s: floa
     start = time.perf_counter()
     simulated = simulate_mpm(batch, mpm, frames, keep="ends")
     seconds = (time.perf_counter() - start) / len(batch)
-    rows = [measure(r, s, MetricSettings(**config["metrics"]), mpm["density_kg_m3"], mpm["frame_interval_s"],
-                    mpm["gravity_m_s2"]) for r, s in zip(batch, simulated)]
+    rows = [
+        measure(
+            r,
+            s,
+            MetricSettings(**config["metrics"]),
+            mpm["density_kg_m3"],
+            mpm["frame_interval_s"],
+            mpm["gravity_m_s2"],
+        )
+        for r, s in zip(batch, simulated)
+    ]
     return rows, seconds, simulated
 
 
@@ -118,8 +146,10 @@ def slopes(config: dict, shape: str, n: int, n_fine: int) -> dict:
         rows, seconds, _ = simulate(config, batch, mpm_settings(config, shape), 10.0)
         levels[str(h)] = {"rows": rows, "s_per_realization": seconds, "particles": len(batch[0].scene.positions)}
         save("slopes", shape, {"levels": levels})
-        print(f"slopes {shape} h {h}: {seconds:.1f} s per realization; R {[round(r.get('runout_m', -1), 2) for r in rows]}",
-              flush=True)
+        print(
+            f"slopes {shape} h {h}: {seconds:.1f} s per realization; R {[round(r.get('runout_m', -1), 2) for r in rows]}",
+            flush=True,
+        )
     return levels
 
 
@@ -130,9 +160,13 @@ def column(config: dict, shape: str) -> dict:
         mpm = mpm_settings(config, shape, floor_friction=float(np.tan(np.radians(30.0))))
         rows, seconds, simulated = simulate(config, batch, mpm, 6.0)
         front = float(simulated[0].positions[-1][:, 0].max())
-        levels[str(h)] = {"runout_ratio": rows[0].get("runout_m", float("nan")) / 4.0,
-                          "front_ratio": (front - 4.0) / 4.0, "status": rows[0]["status"], "s_per_realization": seconds,
-                          "lowest_y_m": float(simulated[0].positions[-1][:, 1].min())}
+        levels[str(h)] = {
+            "runout_ratio": rows[0].get("runout_m", float("nan")) / 4.0,
+            "front_ratio": (front - 4.0) / 4.0,
+            "status": rows[0]["status"],
+            "s_per_realization": seconds,
+            "lowest_y_m": float(simulated[0].positions[-1][:, 1].min()),
+        }
         print(f"column {shape} h {h}: {levels[str(h)]}", flush=True)
     return levels
 
@@ -172,12 +206,16 @@ def diagnose(config: dict, shape: str) -> dict:
         rows, seconds, simulated = simulate(config, batch, mpm_settings(config, route_shape, **changes), 10.0)
         depths = [slide_depth(r, s.positions[-1]) for r, s in zip(batch, simulated)]
         out[name] = {"rows": rows, "slide_depth_m": depths, "s_per_realization": seconds}
-        print(f"diagnose {name}: R {[round(r.get('runout_m', -1), 2) for r in rows]} "
-              f"V {[round(r.get('volume_m2', -1), 1) for r in rows]} depth {depths} ({seconds:.1f} s)", flush=True)
+        print(
+            f"diagnose {name}: R {[round(r.get('runout_m', -1), 2) for r in rows]} "
+            f"V {[round(r.get('volume_m2', -1), 1) for r in rows]} depth {depths} ({seconds:.1f} s)",
+            flush=True,
+        )
     return out
 
 
 # ---------------------------------------------------------------------------------------------- report
+
 
 def observed(values: list[float]) -> dict:
     """Order, Richardson value and each level's error from values at h, h/2, h/4, … (coarse first).
@@ -188,9 +226,13 @@ def observed(values: list[float]) -> dict:
     d_coarse, d_fine = f2 - f3, f1 - f2
     order = float(np.log(abs(d_coarse / d_fine)) / np.log(2)) if d_fine and d_coarse else float("nan")
     asymptotic = bool(0.5 <= order <= 3 and np.sign(d_coarse) == np.sign(d_fine))
-    converged = f1 + d_fine / (2 ** order - 1) if asymptotic else f1
-    return {"order": order, "asymptotic": asymptotic, "converged": float(converged),
-            "errors": [float(v - converged) for v in values]}
+    converged = f1 + d_fine / (2**order - 1) if asymptotic else f1
+    return {
+        "order": order,
+        "asymptotic": asymptotic,
+        "converged": float(converged),
+        "errors": [float(v - converged) for v in values],
+    }
 
 
 def finished(rows: list[dict]) -> set[int]:
@@ -208,16 +250,23 @@ def slope_section(parts: dict, axes) -> tuple[list[str], dict]:
     shapes = [s for s in ("linear", "bspline") if f"slopes-{s}" in parts]
     reference_levels = parts["slopes-bspline"]["levels"]
     references = [h for h in ("0.5", "0.25") if h in reference_levels]
-    spread = {key: float(np.ptp([row[key] for row in reference_levels["0.5"]["rows"] if row["status"] == "ok"]))
-              for key in METRICS}
-    lines = ["## Slopes: the default config's case-1 realizations (10 s)", "",
-             "Means over every realization a level finished; differences: mean |Δ| per realization against the "
-             "B-spline answer at 0.5 m (all realizations) and at 0.25 m (the subset), with % of the range of "
-             f"the 0.5 m B-spline answers over the realizations (R {spread['runout_m']:.2f} m, V "
-             f"{spread['volume_m2']:.1f} m², I {spread['influence_m']:.2f} m).", "",
-             "| shape | h (m) | s per realization | failed (R > 0) | R (m) | V (m²) | I (m) | "
-             + " | ".join(f"\\|ΔR\\|, \\|ΔV\\|, \\|ΔI\\| vs B-spline {h} m" for h in references) + " |",
-             "|---|---|---:|---:|---:|---:|---:|" + "---|" * len(references)]
+    spread = {
+        key: float(np.ptp([row[key] for row in reference_levels["0.5"]["rows"] if row["status"] == "ok"]))
+        for key in METRICS
+    }
+    lines = [
+        "## Slopes: the default config's case-1 realizations (10 s)",
+        "",
+        "Means over every realization a level finished; differences: mean |Δ| per realization against the "
+        "B-spline answer at 0.5 m (all realizations) and at 0.25 m (the subset), with % of the range of "
+        f"the 0.5 m B-spline answers over the realizations (R {spread['runout_m']:.2f} m, V "
+        f"{spread['volume_m2']:.1f} m², I {spread['influence_m']:.2f} m).",
+        "",
+        "| shape | h (m) | s per realization | failed (R > 0) | R (m) | V (m²) | I (m) | "
+        + " | ".join(f"\\|ΔR\\|, \\|ΔV\\|, \\|ΔI\\| vs B-spline {h} m" for h in references)
+        + " |",
+        "|---|---|---:|---:|---:|---:|---:|" + "---|" * len(references),
+    ]
     fits = {}
     for shape in shapes:
         levels = parts[f"slopes-{shape}"]["levels"]
@@ -236,46 +285,66 @@ def slope_section(parts: dict, axes) -> tuple[list[str], dict]:
                     parts_.append(f"{value:.2f} ({100 * value / spread[key]:.0f} %)")
                 cols.append(", ".join(parts_) + f" [n {n}]")
             status = f"{failed} of {len(ok)}" + (f" (+{diverged} diverged)" if diverged else "")
-            lines.append(f"| {shape} | {h:g} | {levels[str(h)]['s_per_realization']:.1f} | {status} | {means[0]:.2f} | "
-                         f"{means[1]:.1f} | {means[2]:.2f} | " + " | ".join(cols) + " |")
+            lines.append(
+                f"| {shape} | {h:g} | {levels[str(h)]['s_per_realization']:.1f} | {status} | {means[0]:.2f} | "
+                f"{means[1]:.1f} | {means[2]:.2f} | " + " | ".join(cols) + " |"
+            )
         common = sorted(set.intersection(*(finished(levels[str(h)]["rows"]) for h in cells)))
-        series = {key: [float(np.mean([levels[str(h)]["rows"][k][key] for k in common])) for h in cells]
-                  for key in METRICS}
-        fits[shape] = {key: observed(series[key]) | {"series": series[key], "cells": cells, "realizations": common}
-                       for key in METRICS}
+        series = {
+            key: [float(np.mean([levels[str(h)]["rows"][k][key] for k in common])) for h in cells] for key in METRICS
+        }
+        fits[shape] = {
+            key: observed(series[key]) | {"series": series[key], "cells": cells, "realizations": common}
+            for key in METRICS
+        }
         for ax, key in zip(axes[:3], METRICS):
             ax.plot(cells, series[key], "o-", label=f"{shape} (realizations {common})")
             ax.set_xscale("log", base=2)
             ax.set_xlabel("cell size h (m)")
             ax.set_title(f"case 1: mean {key}")
-    lines += ["", "Observed order p from the three finest levels, on the means over the realizations every "
-              "level finished, and the Richardson value f* (p in 0.5–3 and differences of one sign; otherwise "
-              "no asymptotic range, and f* is the finest value):", ""]
+    lines += [
+        "",
+        "Observed order p from the three finest levels, on the means over the realizations every "
+        "level finished, and the Richardson value f* (p in 0.5–3 and differences of one sign; otherwise "
+        "no asymptotic range, and f* is the finest value):",
+        "",
+    ]
     for shape, fit in fits.items():
-        text = "; ".join(f"{key.split('_')[0]}: " + " → ".join(f"{v:.2f}" for v in fit[key]["series"])
-                         + f", p = {fit[key]['order']:.2f}"
-                         + (f", f* = {fit[key]['converged']:.2f}" if fit[key]["asymptotic"] else " (no asymptotic range)")
-                         for key in METRICS)
-        lines.append(f"* {shape} (h = {', '.join(f'{h:g}' for h in fit['runout_m']['cells'])} m, realizations "
-                     f"{fit['runout_m']['realizations']}): {text}")
+        text = "; ".join(
+            f"{key.split('_')[0]}: "
+            + " → ".join(f"{v:.2f}" for v in fit[key]["series"])
+            + f", p = {fit[key]['order']:.2f}"
+            + (f", f* = {fit[key]['converged']:.2f}" if fit[key]["asymptotic"] else " (no asymptotic range)")
+            for key in METRICS
+        )
+        lines.append(
+            f"* {shape} (h = {', '.join(f'{h:g}' for h in fit['runout_m']['cells'])} m, realizations "
+            f"{fit['runout_m']['realizations']}): {text}"
+        )
     return lines + [""], fits
 
 
 def column_section(parts: dict, ax) -> list[str]:
     shapes = [s for s in ("linear", "bspline") if f"column-{s}" in parts]
-    lines = ["## Column collapse (4 m × 8 m, aspect 2, φ 30°, 6 s)", "",
-             "Runout R as every metric here measures it (the config's runout percentile of the particles' "
-             "advance past the toe) and the front (the farthest particle), over the width; the lowest particle "
-             "at the end (the floor is y = 0).", "",
-             "| h (m) | " + " | ".join(f"{s}: R / width, front / width, s, lowest y (m)" for s in shapes) + " |",
-             "|---|" + "---|" * len(shapes)]
+    lines = [
+        "## Column collapse (4 m × 8 m, aspect 2, φ 30°, 6 s)",
+        "",
+        "Runout R as every metric here measures it (the config's runout percentile of the particles' "
+        "advance past the toe) and the front (the farthest particle), over the width; the lowest particle "
+        "at the end (the floor is y = 0).",
+        "",
+        "| h (m) | " + " | ".join(f"{s}: R / width, front / width, s, lowest y (m)" for s in shapes) + " |",
+        "|---|" + "---|" * len(shapes),
+    ]
     for h in COLUMN_CELLS:
         cells = []
         for s in shapes:
             level = parts[f"column-{s}"]["levels"][str(h)]
             status = "" if level["status"] == "ok" else f" ({level['status']})"
-            cells.append(f"{level['runout_ratio']:.3f}, {level['front_ratio']:.3f}, {level['s_per_realization']:.1f}, "
-                         f"{level['lowest_y_m']:.4f}{status}")
+            cells.append(
+                f"{level['runout_ratio']:.3f}, {level['front_ratio']:.3f}, {level['s_per_realization']:.1f}, "
+                f"{level['lowest_y_m']:.4f}{status}"
+            )
         lines.append(f"| {h:g} | " + " | ".join(cells) + " |")
     lines.append("")
     for s in shapes:
@@ -283,8 +352,10 @@ def column_section(parts: dict, ax) -> list[str]:
         cells = [h for h in COLUMN_CELLS if levels[str(h)]["status"] == "ok"]
         values = [levels[str(h)]["runout_ratio"] for h in cells]
         fit = observed(values)
-        lines.append(f"* {s} (h = {', '.join(f'{h:g}' for h in cells)} m): observed order {fit['order']:.2f}"
-                     + (f", f* = {fit['converged']:.3f}" if fit["asymptotic"] else " (no asymptotic range)"))
+        lines.append(
+            f"* {s} (h = {', '.join(f'{h:g}' for h in cells)} m): observed order {fit['order']:.2f}"
+            + (f", f* = {fit['converged']:.3f}" if fit["asymptotic"] else " (no asymptotic range)")
+        )
         ax.plot(cells, values, "o-", label=s)
     ax.set_xscale("log", base=2)
     ax.set_xlabel("cell size h (m)")
@@ -293,26 +364,39 @@ def column_section(parts: dict, ax) -> list[str]:
 
 
 def diagnose_section(parts: dict) -> list[str]:
-    lines = ["## Why 40° slopes stand at 1 m cells (uniform φ, the long slope, 10 s; Bishop FS < 1 for both)", "",
-             "| route | φ 30°: R / V / I | φ 34°: R / V / I | slide depth φ 30 / 34 (m) | s per run |",
-             "|---|---|---|---|---:|"]
+    lines = [
+        "## Why 40° slopes stand at 1 m cells (uniform φ, the long slope, 10 s; Bishop FS < 1 for both)",
+        "",
+        "| route | φ 30°: R / V / I | φ 34°: R / V / I | slide depth φ 30 / 34 (m) | s per run |",
+        "|---|---|---|---|---:|",
+    ]
     for shape in ("linear", "bspline"):
         for name, record in parts.get(f"diagnose-{shape}", {}).get("routes", {}).items():
-            cells = [f"{r.get('runout_m', float('nan')):.1f} / {r.get('volume_m2', float('nan')):.1f} / "
-                     f"{r.get('influence_m', float('nan')):.2f}" for r in record["rows"]]
+            cells = [
+                f"{r.get('runout_m', float('nan')):.1f} / {r.get('volume_m2', float('nan')):.1f} / "
+                f"{r.get('influence_m', float('nan')):.2f}"
+                for r in record["rows"]
+            ]
             depth = " / ".join(f"{d:.1f}" for d in record["slide_depth_m"])
             lines.append(f"| {name} | {cells[0]} | {cells[1]} | {depth} | {record['s_per_realization']:.1f} |")
-    return lines + ["", "Slide depth: the deepest starting point, below the slope surface, of a particle that "
-                    "moved more than 0.5 m.", ""]
+    return lines + [
+        "",
+        "Slide depth: the deepest starting point, below the slope surface, of a particle that moved more than 0.5 m.",
+        "",
+    ]
 
 
 def report() -> None:
     parts = {path.stem: json.loads(path.read_text()) for path in sorted(PARTS.glob("*.json"))}
     fig, axes = plt.subplots(1, 4, figsize=(18, 4.2))
-    lines = ["# Mesh convergence of the embedded MPM", "",
-             "`python benchmarks/convergence.py` (parts and method: its docstring); times are wall seconds per "
-             "realization on one CPU thread of a shared 2-core machine, with other processes running (compare "
-             "them within a row of levels only).", ""]
+    lines = [
+        "# Mesh convergence of the embedded MPM",
+        "",
+        "`python benchmarks/convergence.py` (parts and method: its docstring); times are wall seconds per "
+        "realization on one CPU thread of a shared 2-core machine, with other processes running (compare "
+        "them within a row of levels only).",
+        "",
+    ]
     fits = {}
     if "slopes-bspline" in parts:
         section, fits = slope_section(parts, axes)
@@ -343,7 +427,7 @@ def main() -> None:
         torch.set_num_threads(1)
         config = load_config(REPO / "config" / "config.yaml")
         PARTS.mkdir(parents=True, exist_ok=True)
-        for part in (["slopes", "column", "diagnose"] if args.part == "all" else [args.part]):
+        for part in ["slopes", "column", "diagnose"] if args.part == "all" else [args.part]:
             for shape in args.shapes:
                 if part == "slopes":
                     record = {"levels": slopes(config, shape, args.realizations, args.fine_realizations)}

@@ -5,6 +5,7 @@
 Prints, per hand-over, the runout R and sliding volume V of each of the first ``--runs`` held-out
 runs in MPM and in the GNS (the GNS continuing from the MPM's frames W − 6 … W − 1).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,13 +34,20 @@ def main() -> None:
         for k in range(min(args.runs, sampler.n_trajectories)):
             truth = sampler.frames_of(k, 0, sampler.frames)
             friction = np.degrees(np.arctan(sampler.tan_friction[k].numpy()))
-            result = rollout_soil(simulator, [truth], [friction], sampler.frames,
-                                  RolloutSettings(early_stop=True, keep="ends", warmup_frames=warmup))[0]
+            result = rollout_soil(
+                simulator,
+                [truth],
+                [friction],
+                sampler.frames,
+                RolloutSettings(early_stop=True, keep="ends", warmup_frames=warmup),
+            )[0]
             crest = particle_crest_x(truth[0])
             mpm = runout_metrics(truth[0], truth[-1], sampler.volume_m2[k], crest)
             gns = runout_metrics(truth[0], result.positions[-1], sampler.volume_m2[k], crest)
-            cells.append(f"R {mpm.runout_m:.2f} → {gns.runout_m:.2f}, V {mpm.volume_m2:.1f} → {gns.volume_m2:.1f}"
-                         + ("" if result.status == "ok" else f" ({result.status})"))
+            cells.append(
+                f"R {mpm.runout_m:.2f} → {gns.runout_m:.2f}, V {mpm.volume_m2:.1f} → {gns.volume_m2:.1f}"
+                + ("" if result.status == "ok" else f" ({result.status})")
+            )
         print(f"hand-over after {warmup} frames: " + " | ".join(cells), flush=True)
 
 

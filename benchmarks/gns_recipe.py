@@ -18,6 +18,7 @@ acceleration) on 128 fixed windows of smoothed frames and on the same windows of
 the mean |error| of the runout R over full rollouts of the first held-out runs.
 Results: ``benchmarks/results/gns_recipe.json`` and ``gns_recipe.md``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,8 +34,17 @@ from rgns.gns.simulator import LearnedSimulator, ModelSettings, OneStepLoss, ran
 from rgns.gns.train import TrainSettings, fixed_windows, learning_rate, one_step_losses, rollout_score
 
 RESULTS = Path(__file__).parent / "results"
-RECIPE = {"smoothing": 2.0, "noise": 5e-5, "fold_noise": True, "clip": 25.0, "drop_padding": True,
-          "decay_rate": 0.01, "decay_steps": None, "radius_cells": 1.5, "acceleration_features": False}
+RECIPE = {
+    "smoothing": 2.0,
+    "noise": 5e-5,
+    "fold_noise": True,
+    "clip": 25.0,
+    "drop_padding": True,
+    "decay_rate": 0.01,
+    "decay_steps": None,
+    "radius_cells": 1.5,
+    "acceleration_features": False,
+}
 VARIANTS = {
     "recipe": {},
     "no_smoothing": {"smoothing": 0.0},
@@ -45,18 +55,33 @@ VARIANTS = {
     "with_padding": {"drop_padding": False},
     "radius_2_cells": {"radius_cells": 2.0},
     "acceleration_features": {"acceleration_features": True},
-    "old": {"smoothing": 0.0, "noise": 2e-4, "fold_noise": False, "clip": 0.0, "drop_padding": False,
-            "decay_rate": 0.1, "decay_steps": 5000},
+    "old": {
+        "smoothing": 0.0,
+        "noise": 2e-4,
+        "fold_noise": False,
+        "clip": 0.0,
+        "drop_padding": False,
+        "decay_rate": 0.1,
+        "decay_steps": 5000,
+    },
 }
 
 
 def run_variant(name: str, train_path: str, valid_path: str, steps: int, rollouts: int, seed: int) -> dict:
     """Train one variant for ``steps`` and score it."""
     options = RECIPE | VARIANTS[name]
-    model = ModelSettings(latent_size=32, mlp_width=32, mlp_hidden_layers=2, message_passing_steps=5, history=5,
-                          radius_m=options["radius_cells"], acceleration_features=options["acceleration_features"])
-    settings = TrainSettings(steps=steps, decay_rate=options["decay_rate"], decay_steps=options["decay_steps"],
-                             learning_rate_min=1e-6)
+    model = ModelSettings(
+        latent_size=32,
+        mlp_width=32,
+        mlp_hidden_layers=2,
+        message_passing_steps=5,
+        history=5,
+        radius_m=options["radius_cells"],
+        acceleration_features=options["acceleration_features"],
+    )
+    settings = TrainSettings(
+        steps=steps, decay_rate=options["decay_rate"], decay_steps=options["decay_steps"], learning_rate_min=1e-6
+    )
     train = WindowSampler(train_path, model.history, 1, options["smoothing"])
     if not options["drop_padding"]:  # every frame counts as real, copies included
         train.real = [train.frames] * train.n_trajectories
@@ -86,18 +111,24 @@ def run_variant(name: str, train_path: str, valid_path: str, steps: int, rollout
         valid.smoothing_frames = sigma
         loss, mean = one_step_losses(simulator, valid, batches, 25.0, cpu)
         scores[f"{label}_loss_over_mean_predictor"] = loss / mean
-    scores |= rollout_score(simulator, WindowSampler(valid_path, model.history), rollouts, settings.selection_warmup_frames,
-                            cpu)
+    scores |= rollout_score(
+        simulator, WindowSampler(valid_path, model.history), rollouts, settings.selection_warmup_frames, cpu
+    )
     return scores
 
 
 def markdown(rows: list[dict]) -> str:
-    lines = ["| variant | one-step loss / mean predictor (smoothed windows) | (raw windows) | "
-             "held-out rollouts: mean abs R error (m) | diverged | s per step |", "|---|---:|---:|---:|---:|---:|"]
+    lines = [
+        "| variant | one-step loss / mean predictor (smoothed windows) | (raw windows) | "
+        "held-out rollouts: mean abs R error (m) | diverged | s per step |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for row in rows:
-        lines.append(f"| {row['variant']} | {row['smoothed_loss_over_mean_predictor']:.3f} | "
-                     f"{row['raw_loss_over_mean_predictor']:.3f} | {row['valid_runout_error_m']:.2f} | "
-                     f"{row['valid_diverged']} | {row['train_s_per_step']:.2f} |")
+        lines.append(
+            f"| {row['variant']} | {row['smoothed_loss_over_mean_predictor']:.3f} | "
+            f"{row['raw_loss_over_mean_predictor']:.3f} | {row['valid_runout_error_m']:.2f} | "
+            f"{row['valid_diverged']} | {row['train_s_per_step']:.2f} |"
+        )
     return "\n".join(lines) + "\n"
 
 

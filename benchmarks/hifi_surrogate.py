@@ -15,6 +15,7 @@ surrogate fine-tuned on 0.5 m MPM runs, as the cheap route of the multi-fidelity
 Writes ``benchmarks/results/hifi_surrogate.{json,md,png}``; the data and the tuned model stay in
 ``benchmarks/results/models/hifi/`` (not committed).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -23,16 +24,16 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-import torch
-
 import multifidelity as mf
+import torch
+from suite import case_inputs
+
 from rgns.config import load_config
 from rgns.endstate.data import read_end_states, write_end_states
 from rgns.endstate.model import load_model
 from rgns.endstate.train import examples, held_out_loss
 from rgns.endstate.tuning import TuneSettings, fine_tune, simulate_tuning_states
 from rgns.trajectories import frame_count
-from suite import case_inputs
 
 REPO = Path(__file__).resolve().parent.parent
 WORK = REPO / "benchmarks" / "results" / "models" / "hifi"
@@ -46,8 +47,13 @@ def run_chunk(seed: int, indices: list[int], data: Path) -> tuple[int, float, li
     config["seed"] = seed
     mpm = config["mpm"]
     start = time.perf_counter()
-    states, statuses = simulate_tuning_states(case_inputs(config, "case1", 1.0), case_inputs(config, "case1", 0.5),
-                                              indices, mpm, frame_count(mpm["duration_s"], mpm["frame_interval_s"]))
+    states, statuses = simulate_tuning_states(
+        case_inputs(config, "case1", 1.0),
+        case_inputs(config, "case1", 0.5),
+        indices,
+        mpm,
+        frame_count(mpm["duration_s"], mpm["frame_interval_s"]),
+    )
     write_end_states(data / f"s{seed}_{indices[0]:04d}.h5", states, statuses)
     return indices[0], time.perf_counter() - start, statuses
 
@@ -89,14 +95,24 @@ def main() -> None:
     routes = {name: record["routes"][name] for name in (mf.HIGH, "MPM 1 m")}
     mf.add_endstate_route(routes, record["n"], shipped, "end-state surrogate, shipped (1 m)")
     mf.add_endstate_route(routes, record["n"], tuned, "end-state surrogate, tuned on 0.5 m")
-    result = {"args": {k: str(v) for k, v in vars(args).items()}, "train": len(train), "held_out": len(held),
-              "before": before, "history": history, "fine_tune_s": time.perf_counter() - start,
-              "n": record["n"], "routes": routes, "machine": record["machine"]}
+    result = {
+        "args": {k: str(v) for k, v in vars(args).items()},
+        "train": len(train),
+        "held_out": len(held),
+        "before": before,
+        "history": history,
+        "fine_tune_s": time.perf_counter() - start,
+        "n": record["n"],
+        "routes": routes,
+        "machine": record["machine"],
+    }
     result["analysis"] = mf.analyse(result)
     (mf.OUT / "hifi_surrogate.json").write_text(json.dumps(result, indent=1, default=float) + "\n")
-    text = (f"Fine-tuned on {len(train)} coarse-grained 0.5 m MPM runs of case 1 (seed {args.seed}), {len(held)} "
-            f"held out: held-out loss {before['valid_loss']:.4g} (shipped) → {history[-1]['valid_loss']:.4g} "
-            f"after {args.steps} steps at {args.learning_rate:g}.\n\n" + mf.markdown(result))
+    text = (
+        f"Fine-tuned on {len(train)} coarse-grained 0.5 m MPM runs of case 1 (seed {args.seed}), {len(held)} "
+        f"held out: held-out loss {before['valid_loss']:.4g} (shipped) → {history[-1]['valid_loss']:.4g} "
+        f"after {args.steps} steps at {args.learning_rate:g}.\n\n" + mf.markdown(result)
+    )
     (mf.OUT / "hifi_surrogate.md").write_text(text)
     mf.plot(result, mf.OUT / "hifi_surrogate.png")
     print(text)

@@ -10,6 +10,7 @@ intervals (``rgns.hazard.exceedance_distances``), the means, and the wall time p
 and whether each pair of intervals overlaps. Writes ``benchmarks/results/mc_routes.json`` and
 ``mc_routes.md``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,9 +38,14 @@ METRICS = {"runout_m": "R", "influence_m": "I"}
 def run_route(config: dict, case: str, n: int, simulator: str, model: Path) -> tuple[list[dict], float]:
     """The Monte Carlo table rows of realizations 0..n-1 by one simulator, and seconds per realization."""
     section = config["montecarlo"]
-    params = {"montecarlo": {key: section[key] for key in ("simulator", "batch_size", "duration_s", "device",
-                                                           "keep_frames", "rollout", "screen")},
-              "mpm": config["mpm"], "metrics": config["metrics"]}
+    params = {
+        "montecarlo": {
+            key: section[key]
+            for key in ("simulator", "batch_size", "duration_s", "device", "keep_frames", "rollout", "screen")
+        },
+        "mpm": config["mpm"],
+        "metrics": config["metrics"],
+    }
     settings = replace(RunSettings.from_params(params), simulator=simulator)
     network = load_simulator(model).eval() if simulator == "gns" else None
     start = time.perf_counter()
@@ -52,8 +58,11 @@ def summary(rows: list[dict]) -> dict:
     out = {}
     for key in METRICS:
         values = np.array([row[key] for row in rows if np.isfinite(row[key])])
-        out[key] = {"mean": float(values.mean()), "n": int(values.size),
-                    "exceedance": [asdict(d) for d in exceedance_distances(values, PROBABILITIES)]}
+        out[key] = {
+            "mean": float(values.mean()),
+            "n": int(values.size),
+            "exceedance": [asdict(d) for d in exceedance_distances(values, PROBABILITIES)],
+        }
     return out
 
 
@@ -68,19 +77,29 @@ def _bound(value: float | None) -> str:
 
 
 def markdown(record: dict) -> str:
-    lines = [f"{record['case']}, {record['n']} realizations (the same ones by each route); machine: "
-             f"{record['machine']}", "",
-             "| quantity | GNS (shipped) | MPM | intervals overlap |", "|---|---|---|---|"]
+    lines = [
+        f"{record['case']}, {record['n']} realizations (the same ones by each route); machine: {record['machine']}",
+        "",
+        "| quantity | GNS (shipped) | MPM | intervals overlap |",
+        "|---|---|---|---|",
+    ]
     gns, mpm = record["routes"]["gns"]["summary"], record["routes"]["mpm"]["summary"]
     for key, name in METRICS.items():
         for a, b in zip(gns[key]["exceedance"], mpm[key]["exceedance"]):
-            cell = [f"{d['distance_m']:.2f} [{_bound(d['lower_m'])}, {_bound(d['upper_m'])}]" if d["resolved"]
-                    else d["note"] for d in (a, b)]
-            lines.append(f"| {name} exceeded with p = {a['probability']:g} (m) | {cell[0]} | {cell[1]} | "
-                         f"{overlap(a, b)} |")
+            cell = [
+                f"{d['distance_m']:.2f} [{_bound(d['lower_m'])}, {_bound(d['upper_m'])}]"
+                if d["resolved"]
+                else d["note"]
+                for d in (a, b)
+            ]
+            lines.append(
+                f"| {name} exceeded with p = {a['probability']:g} (m) | {cell[0]} | {cell[1]} | {overlap(a, b)} |"
+            )
         lines.append(f"| mean {name} (m) | {gns[key]['mean']:.2f} | {mpm[key]['mean']:.2f} | |")
-    lines.append(f"| s per realization | {record['routes']['gns']['s_per_realization']:.2f} | "
-                 f"{record['routes']['mpm']['s_per_realization']:.2f} | |")
+    lines.append(
+        f"| s per realization | {record['routes']['gns']['s_per_realization']:.2f} | "
+        f"{record['routes']['mpm']['s_per_realization']:.2f} | |"
+    )
     return "\n".join(lines) + "\n"
 
 
@@ -99,8 +118,12 @@ def main() -> None:
         rows, seconds = run_route(config, case, n, simulator, args.model)
         routes[simulator] = {"s_per_realization": seconds, "rows": rows, "summary": summary(rows)}
         print(f"{simulator}: {seconds:.2f} s per realization", flush=True)
-    record = {"case": case, "n": n, "routes": routes,
-              "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, 1 thread, CPU"}
+    record = {
+        "case": case,
+        "n": n,
+        "routes": routes,
+        "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, 1 thread, CPU",
+    }
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "mc_routes.json").write_text(json.dumps(record, indent=1, default=float) + "\n")
     (OUT / "mc_routes.md").write_text(markdown(record))

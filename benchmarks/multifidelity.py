@@ -22,6 +22,7 @@ error over 2,000 draws per budget, plain over multi-fidelity, is the speed-up at
 errors scale as 1/B). Writes ``benchmarks/results/multifidelity.json``, ``multifidelity.md`` and
 ``multifidelity.png``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,22 +38,31 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
+from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the same drawing and measuring)
 
 from rgns.config import load_config  # noqa: E402
 from rgns.endstate.model import load_model  # noqa: E402
 from rgns.montecarlo import simulate_endstate, simulate_mpm  # noqa: E402
-from rgns.multifidelity import (optimal_ratio, point_estimate, predicted_exceedance,  # noqa: E402
-                                regression_point_estimate, speedup)
+from rgns.multifidelity import (
+    optimal_ratio,
+    point_estimate,
+    predicted_exceedance,  # noqa: E402
+    regression_point_estimate,
+    speedup,
+)
 from rgns.realizations import FINISHED, draw_realization  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402
-from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the same drawing and measuring)
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
 HIGH = "MPM 0.5 m"
 # name: (cell size, overrides of mpm.embedded); CFL 0.8: larger steps, tried as the cheap route and rejected
-MPM_ROUTES = {HIGH: (0.5, {}), "MPM 1 m": (1.0, {}), "MPM 1 m, cfl 0.8": (1.0, {"cfl": 0.8, "dt_max_s": 0.0125}),
-              "MPM 2 m": (2.0, {})}
+MPM_ROUTES = {
+    HIGH: (0.5, {}),
+    "MPM 1 m": (1.0, {}),
+    "MPM 1 m, cfl 0.8": (1.0, {"cfl": 0.8, "dt_max_s": 0.0125}),
+    "MPM 2 m": (2.0, {}),
+}
 DRAWS = 2000
 
 
@@ -69,8 +79,10 @@ def run_chunk(indices: list[int]) -> dict[str, tuple[list[dict], float]]:
         simulated = simulate_mpm(batch, mpm, frame_count(mpm["duration_s"], mpm["frame_interval_s"]), keep="ends")
         seconds = time.perf_counter() - start
         rows = measured(batch, simulated, config)
-        out[name] = ([{k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")} for row in rows],
-                     seconds)
+        out[name] = (
+            [{k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")} for row in rows],
+            seconds,
+        )
     return out
 
 
@@ -101,8 +113,12 @@ def add_gns_route(routes: dict, n: int) -> None:
             routes["GNS (shipped)"] = {"rows": record["rows"][:n], "s_per_realization": record["s_per_realization"]}
 
 
-def add_endstate_route(routes: dict, n: int, model_path: Path = REPO / "rgns" / "models" / "endstate.pt",
-                       name: str = "end-state surrogate (shipped)") -> None:
+def add_endstate_route(
+    routes: dict,
+    n: int,
+    model_path: Path = REPO / "rgns" / "models" / "endstate.pt",
+    name: str = "end-state surrogate (shipped)",
+) -> None:
     """An end-state surrogate's rows of realizations 0..n-1 and its seconds per realization, as route
     ``name`` (one thread, the batches of montecarlo.batch_size the pipeline uses; drawing not counted,
     as for MPM)."""
@@ -116,18 +132,35 @@ def add_endstate_route(routes: dict, n: int, model_path: Path = REPO / "rgns" / 
         start = time.perf_counter()
         simulated = simulate_endstate(model, batch)
         seconds += time.perf_counter() - start
-        rows += [{k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")}
-                 for row in measured(batch, simulated, config)]
+        rows += [
+            {k: row[k] for k in ("index", "status", "runout_m", "volume_m2", "influence_m")}
+            for row in measured(batch, simulated, config)
+        ]
     routes[name] = {"rows": rows, "s_per_realization": seconds / n}
 
 
-QUANTITY_NAMES = ("mean R", "P(R > r50)", "P(R > r10)", "P(R > r50), regression", "P(R > r10), regression", "mean V",
-                  "mean I")
+QUANTITY_NAMES = (
+    "mean R",
+    "P(R > r50)",
+    "P(R > r10)",
+    "P(R > r50), regression",
+    "P(R > r10), regression",
+    "mean V",
+    "mean I",
+)
 MEANS = {0: "runout_m", 5: "volume_m2", 6: "influence_m"}  # quantity index: the metric whose mean it is
 
 
-def mse_over_draws(high_v: np.ndarray, low_v: np.ndarray, thresholds: np.ndarray, n_pairs: int, n_low: int,
-                   k: int, truth: float, rng: np.random.Generator) -> float:
+def mse_over_draws(
+    high_v: np.ndarray,
+    low_v: np.ndarray,
+    thresholds: np.ndarray,
+    n_pairs: int,
+    n_low: int,
+    k: int,
+    truth: float,
+    rng: np.random.Generator,
+) -> float:
     """Mean squared error of quantity k's multi-fidelity estimate over DRAWS draws of n_pairs paired and
     n_low − n_pairs unpaired realizations (with replacement) from the pool; ``high_v``, ``low_v`` are the
     values of the metric it is about (R, or V or I for their means)."""
@@ -137,11 +170,13 @@ def mse_over_draws(high_v: np.ndarray, low_v: np.ndarray, thresholds: np.ndarray
         estimate = point_estimate(h, low[:, :n_pairs], low[:, n_pairs:], axis=1)
     elif k < 3:
         t = thresholds[k - 1]
-        estimate = point_estimate((h > t).astype(float), (low[:, :n_pairs] > t).astype(float),
-                                  (low[:, n_pairs:] > t).astype(float), axis=1)
+        estimate = point_estimate(
+            (h > t).astype(float), (low[:, :n_pairs] > t).astype(float), (low[:, n_pairs:] > t).astype(float), axis=1
+        )
     else:
-        estimate = regression_point_estimate(h[..., None], low[:, :n_pairs, None], low[:, n_pairs:, None],
-                                             thresholds[[k - 3]])[:, 0]
+        estimate = regression_point_estimate(
+            h[..., None], low[:, :n_pairs, None], low[:, n_pairs:, None], thresholds[[k - 3]]
+        )[:, 0]
     return float(((estimate - truth) ** 2).mean())
 
 
@@ -150,8 +185,8 @@ def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), s
     the means of R, V and I, and P(R > r) by the indicator control variate 1[l > r] and by the
     regression one (the cheap route's predicted P(h > r | l), ``regression_control_variate``)."""
     routes = record["routes"]
-    ok = np.array([all(r["rows"][i]["status"] in FINISHED for r in routes.values())
-                   for i in range(record["n"])])
+    ok = np.array([all(r["rows"][i]["status"] in FINISHED for r in routes.values()) for i in range(record["n"])])
+
     def values(route: dict, key: str) -> np.ndarray:
         return np.array([row[key] for row in route["rows"]])[ok]
 
@@ -160,13 +195,25 @@ def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), s
 
     high_r = values(routes[HIGH], "runout_m")
     thresholds = np.quantile(high_r, [0.5, 0.9])
-    high_q = np.column_stack([high_r, high_r[:, None] > thresholds, high_r[:, None] > thresholds,
-                              values(routes[HIGH], "volume_m2"), values(routes[HIGH], "influence_m")])
+    high_q = np.column_stack(
+        [
+            high_r,
+            high_r[:, None] > thresholds,
+            high_r[:, None] > thresholds,
+            values(routes[HIGH], "volume_m2"),
+            values(routes[HIGH], "influence_m"),
+        ]
+    )
     truth = high_q.mean(axis=0)
     c_high = routes[HIGH]["s_per_realization"]
     rng = np.random.default_rng(seed)
-    out = {"thresholds_m": thresholds.tolist(), "truth": truth.tolist(), "n_ok": int(ok.sum()),
-           "quantities": list(QUANTITY_NAMES), "cheap": {}}
+    out = {
+        "thresholds_m": thresholds.tolist(),
+        "truth": truth.tolist(),
+        "n_ok": int(ok.sum()),
+        "quantities": list(QUANTITY_NAMES),
+        "cheap": {},
+    }
     for name, route in routes.items():
         if name == HIGH:
             continue
@@ -175,24 +222,48 @@ def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), s
         low_vi = [values(route, "volume_m2"), values(route, "influence_m")]
         low_q = np.column_stack([low_r, low_r[:, None] > thresholds, predicted, *low_vi])
         c_low = route["s_per_realization"]
-        correlation = [float(np.corrcoef(high_q[:, k], low_q[:, k])[0, 1]) if low_q[:, k].std() > 0 else 0.0
-                       for k in range(len(QUANTITY_NAMES))]
+        correlation = [
+            float(np.corrcoef(high_q[:, k], low_q[:, k])[0, 1]) if low_q[:, k].std() > 0 else 0.0
+            for k in range(len(QUANTITY_NAMES))
+        ]
         ratios = [optimal_ratio(c_high, c_low, rho) for rho in correlation]
-        result = {"s_per_realization": c_low, "correlation": correlation, "ratio": ratios,
-                  "bias": (np.column_stack([low_r, low_r[:, None] > thresholds, low_r[:, None] > thresholds,
-                                            *low_vi]).mean(0) - truth).tolist(),
-                  "predicted_speedup": [speedup(c_high, c_low, rho) for rho in correlation], "budgets": []}
+        result = {
+            "s_per_realization": c_low,
+            "correlation": correlation,
+            "ratio": ratios,
+            "bias": (
+                np.column_stack([low_r, low_r[:, None] > thresholds, low_r[:, None] > thresholds, *low_vi]).mean(0)
+                - truth
+            ).tolist(),
+            "predicted_speedup": [speedup(c_high, c_low, rho) for rho in correlation],
+            "budgets": [],
+        }
         for budget in budgets_in_high_runs:
             plain = np.array([high_q[rng.integers(0, high_r.size, budget)].mean(0) for _ in range(DRAWS)])
-            row = {"high_runs": budget, "n_pairs": [], "n_low": [], "mse_plain": ((plain - truth) ** 2).mean(0).tolist(),
-                   "mse_multi": []}
+            row = {
+                "high_runs": budget,
+                "n_pairs": [],
+                "n_low": [],
+                "mse_plain": ((plain - truth) ** 2).mean(0).tolist(),
+                "mse_multi": [],
+            }
             for k, ratio in enumerate(ratios):  # each quantity with its own optimal allocation
                 n_pairs = max(3, int(budget * c_high // (c_high + ratio * c_low)))
                 n_low = max(n_pairs, int((budget - n_pairs) * c_high // c_low))
                 row["n_pairs"].append(n_pairs)
                 row["n_low"].append(n_low)
-                row["mse_multi"].append(mse_over_draws(values(routes[HIGH], metric_of(k)), values(route, metric_of(k)),
-                                                       thresholds, n_pairs, n_low, k, truth[k], rng))
+                row["mse_multi"].append(
+                    mse_over_draws(
+                        values(routes[HIGH], metric_of(k)),
+                        values(route, metric_of(k)),
+                        thresholds,
+                        n_pairs,
+                        n_low,
+                        k,
+                        truth[k],
+                        rng,
+                    )
+                )
             row["speedup"] = (np.array(row["mse_plain"]) / np.array(row["mse_multi"])).tolist()
             result["budgets"].append(row)
         out["cheap"][name] = result
@@ -201,18 +272,23 @@ def analyse(record: dict, budgets_in_high_runs: tuple[int, ...] = (8, 16, 32), s
 
 def markdown(record: dict) -> str:
     a = record["analysis"]
-    lines = [f"Case 1, {a['n_ok']} realizations run by every route (the pool); high fidelity {HIGH} at "
-             f"{record['routes'][HIGH]['s_per_realization']:.2f} s per realization; r50 / r10 = "
-             f"{a['thresholds_m'][0]:.2f} / {a['thresholds_m'][1]:.2f} m; {DRAWS} draws per budget; machine: "
-             f"{record['machine']}", "",
-             "| cheap route | s per realization | quantity | correlation | bias of the cheap route | N/n | "
-             "predicted speed-up | measured speed-up at 8 / 16 / 32 high-fidelity runs' time |",
-             "|---|---:|---|---:|---:|---:|---:|---|"]
+    lines = [
+        f"Case 1, {a['n_ok']} realizations run by every route (the pool); high fidelity {HIGH} at "
+        f"{record['routes'][HIGH]['s_per_realization']:.2f} s per realization; r50 / r10 = "
+        f"{a['thresholds_m'][0]:.2f} / {a['thresholds_m'][1]:.2f} m; {DRAWS} draws per budget; machine: "
+        f"{record['machine']}",
+        "",
+        "| cheap route | s per realization | quantity | correlation | bias of the cheap route | N/n | "
+        "predicted speed-up | measured speed-up at 8 / 16 / 32 high-fidelity runs' time |",
+        "|---|---:|---|---:|---:|---:|---:|---|",
+    ]
     for name, r in a["cheap"].items():
         for k, quantity in enumerate(QUANTITY_NAMES):
             measured = " / ".join(f"{b['speedup'][k]:.2f}" for b in r["budgets"])
-            lines.append(f"| {name} | {r['s_per_realization']:.2f} | {quantity} | {r['correlation'][k]:.3f} | "
-                         f"{r['bias'][k]:+.3f} | {r['ratio'][k]:.2f} | {r['predicted_speedup'][k]:.2f} | {measured} |")
+            lines.append(
+                f"| {name} | {r['s_per_realization']:.2f} | {quantity} | {r['correlation'][k]:.3f} | "
+                f"{r['bias'][k]:+.3f} | {r['ratio'][k]:.2f} | {r['predicted_speedup'][k]:.2f} | {measured} |"
+            )
     return "\n".join(lines) + "\n"
 
 
@@ -225,8 +301,13 @@ def plot(record: dict, path: Path) -> None:
         cost = [b["high_runs"] * c_high for b in first["budgets"]]
         ax.loglog(cost, [b["mse_plain"][k] for b in first["budgets"]], "k-o", label=f"plain, {HIGH}")
         for j, (name, r) in enumerate(a["cheap"].items()):
-            ax.loglog(cost, [b["mse_multi"][k] for b in r["budgets"]], "--o", color=f"C{j}",
-                      label=f"multi-fidelity, cheap: {name}")
+            ax.loglog(
+                cost,
+                [b["mse_multi"][k] for b in r["budgets"]],
+                "--o",
+                color=f"C{j}",
+                label=f"multi-fidelity, cheap: {name}",
+            )
         ax.set_title(quantity)
         ax.set_xlabel("wall time (s, one thread)")
         ax.set_ylabel("mean squared error")
@@ -246,9 +327,12 @@ def main() -> None:
     if args.analyse:
         record = json.loads(path.read_text())
     else:
-        record = {"n": args.realizations, "routes": run_routes(args.realizations, args.workers),
-                  "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, "
-                             f"{args.workers} workers of 1 thread, CPU"}
+        record = {
+            "n": args.realizations,
+            "routes": run_routes(args.realizations, args.workers),
+            "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, "
+            f"{args.workers} workers of 1 thread, CPU",
+        }
     add_gns_route(record["routes"], record["n"])
     add_endstate_route(record["routes"], record["n"])
     record["analysis"] = analyse(record)

@@ -13,6 +13,7 @@ intervals over realizations, and the failed/stood confusion (``--output``.{json,
 ``--compare`` a second model (e.g. the previous shipped one) on the same slopes. It also times the
 model and the MPM per realization, one thread each, side by side.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,8 +38,13 @@ REPO = Path(__file__).resolve().parent.parent
 def evaluate(model_path: str, config: dict, data: Path, sets: list[str], realizations: int) -> pd.DataFrame:
     """The agreement rows of a model on every set's end states (the first ``realizations`` of each)."""
     seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
-    chosen = {name: ([s for s in read_end_states(sorted((data / name).glob("chunk_*.h5"))) if s.index < realizations],
-                     CaseInputs.from_config(seeded, name)) for name in sets}
+    chosen = {
+        name: (
+            [s for s in read_end_states(sorted((data / name).glob("chunk_*.h5"))) if s.index < realizations],
+            CaseInputs.from_config(seeded, name),
+        )
+        for name in sets
+    }
     return agreement_table(load_model(model_path), chosen, MetricSettings(**config["metrics"]))
 
 
@@ -48,8 +54,12 @@ def cost_per_realization(model_path: str, config: dict, case: str, count: int) -
     seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
     inputs = CaseInputs.from_config(seeded, case)
     began = time.perf_counter()
-    states, _ = simulate_end_states(inputs, list(range(count)), config["mpm"],
-                                    frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"]))
+    states, _ = simulate_end_states(
+        inputs,
+        list(range(count)),
+        config["mpm"],
+        frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"]),
+    )
     mpm_s = (time.perf_counter() - began) / count
     model = load_model(model_path)
     model.predict([states[0].initial], [states[0].friction_deg])  # warm-up
@@ -62,7 +72,9 @@ def cost_per_realization(model_path: str, config: dict, case: str, count: int) -
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--config", default=str(REPO / "config" / "pretrain_general.yaml"))
-    parser.add_argument("--data", default=str(REPO / "work" / "pretrain_general" / "results" / "endstate" / "validation"))
+    parser.add_argument(
+        "--data", default=str(REPO / "work" / "pretrain_general" / "results" / "endstate" / "validation")
+    )
     parser.add_argument("--model", default=str(REPO / "rgns" / "models" / "endstate.pt"))
     parser.add_argument("--compare", help="a second model file, evaluated on the same slopes")
     parser.add_argument("--sets", nargs="+", help="sets of the config (default: all)")
@@ -72,9 +84,14 @@ def main() -> None:
     args = parser.parse_args()
     config = load_config(args.config)
     sets = args.sets or config["endstate"]["validation"]["sets"]
-    result = {"command": "python benchmarks/ood_surrogate.py " + " ".join(
-        f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items() if v is not None and k not in ("output",)),
-        "config": args.config, "data_seed": config["endstate"]["validation"]["data_seed"]}
+    result = {
+        "command": "python benchmarks/ood_surrogate.py "
+        + " ".join(
+            f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items() if v is not None and k not in ("output",)
+        ),
+        "config": args.config,
+        "data_seed": config["endstate"]["validation"]["data_seed"],
+    }
     tables = {"model": evaluate(args.model, config, Path(args.data), sets, args.realizations)}
     if args.compare:
         tables["compare"] = evaluate(args.compare, config, Path(args.data), sets, args.realizations)
@@ -82,14 +99,24 @@ def main() -> None:
     if args.time_realizations:
         result["cost"] = cost_per_realization(args.model, config, "case1", args.time_realizations)
     Path(args.output + ".json").write_text(json.dumps(result, indent=2) + "\n")
-    lines = [f"# End-state surrogate out of distribution (seed {result['data_seed']})", "",
-             f"`{result['command']}`", "", f"## {args.model}", "", markdown_table(tables["model"])]
+    lines = [
+        f"# End-state surrogate out of distribution (seed {result['data_seed']})",
+        "",
+        f"`{result['command']}`",
+        "",
+        f"## {args.model}",
+        "",
+        markdown_table(tables["model"]),
+    ]
     if args.compare:
         lines += [f"## {args.compare}", "", markdown_table(tables["compare"])]
     if "cost" in result:
         cost = result["cost"]
-        lines += [f"Cost per realization, one thread, {cost['realizations']} case-1 realizations: MPM "
-                  f"{cost['mpm_s']:.2f} s, model {cost['model_s'] * 1000:.1f} ms ({cost['ratio']:.0f}× cheaper).", ""]
+        lines += [
+            f"Cost per realization, one thread, {cost['realizations']} case-1 realizations: MPM "
+            f"{cost['mpm_s']:.2f} s, model {cost['model_s'] * 1000:.1f} ms ({cost['ratio']:.0f}× cheaper).",
+            "",
+        ]
     Path(args.output + ".md").write_text("\n".join(lines))
     print("\n".join(lines))
 

@@ -17,6 +17,7 @@ MPM at another CFL number (``--baseline-cfl``; a change of the time step that mo
 positions by millimetres) against the MPM: the agreement an exact surrogate of either would show.
 Writes ``results/scarp_resolution.{json,md}``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,8 +39,13 @@ from rgns.validation import r_squared
 REPO = Path(__file__).resolve().parent.parent
 
 
-def interpolated_influence(initial: np.ndarray, final: np.ndarray, crest_x_m: float, spacing_m: float,
-                           threshold_m: float = DISPLACEMENT_THRESHOLD_M) -> float:
+def interpolated_influence(
+    initial: np.ndarray,
+    final: np.ndarray,
+    crest_x_m: float,
+    spacing_m: float,
+    threshold_m: float = DISPLACEMENT_THRESHOLD_M,
+) -> float:
     """Crest to the scarp, the scarp where the displacement crosses the threshold between a row's
     rear-most displaced point and the lattice point behind it (that point's own x if none is behind)."""
     moved_by = np.linalg.norm(final - initial, axis=1)
@@ -56,7 +62,7 @@ def interpolated_influence(initial: np.ndarray, final: np.ndarray, crest_x_m: fl
     return max(0.0, float(crest_x_m - rear))
 
 
-NEAR_THRESHOLD_M = 0.3   # the surrogate's displacement error is taken at points MPM moves 1 ± 0.3 m
+NEAR_THRESHOLD_M = 0.3  # the surrogate's displacement error is taken at points MPM moves 1 ± 0.3 m
 
 
 def run(case: str, indices: list[int], baseline_cfl: float) -> list[tuple[tuple[float, ...], np.ndarray, np.ndarray]]:
@@ -76,9 +82,14 @@ def run(case: str, indices: list[int], baseline_cfl: float) -> list[tuple[tuple[
         if truth.status != "ok" or again.status != "ok":
             continue
         initial, crest = realization.scene.positions, crest_x(realization.scene.vertices)
-        influence = tuple(value for result in (truth, guess, again) for value in (
-            influence_distance(initial, result.positions[-1], crest),
-            interpolated_influence(initial, result.positions[-1], crest, spacing)))
+        influence = tuple(
+            value
+            for result in (truth, guess, again)
+            for value in (
+                influence_distance(initial, result.positions[-1], crest),
+                interpolated_influence(initial, result.positions[-1], crest, spacing),
+            )
+        )
         moved, predicted = (np.linalg.norm(result.positions[-1] - initial, axis=1) for result in (truth, guess))
         near = np.abs(moved - DISPLACEMENT_THRESHOLD_M) < NEAR_THRESHOLD_M
         rows.append((influence, moved[near], predicted[near]))
@@ -91,24 +102,35 @@ def summary(case: str, rows: list[tuple[tuple[float, ...], np.ndarray, np.ndarra
     moved = np.concatenate([row[1] for row in rows])
     error = np.concatenate([row[2] for row in rows]) - moved
     flipped = (moved >= DISPLACEMENT_THRESHOLD_M) != (moved + error >= DISPLACEMENT_THRESHOLD_M)
-    return {"case": case, "n": len(rows),
-            "mpm_influence_std_m": float(influence[:, 0].std()),
-            "r2_measured": r_squared(influence[:, 0], influence[:, 2]),
-            "r2_interpolated": r_squared(influence[:, 1], influence[:, 3]),
-            "r2_baseline_measured": r_squared(influence[:, 0], influence[:, 4]),
-            "r2_baseline_interpolated": r_squared(influence[:, 1], influence[:, 5]),
-            "near_points": int(moved.size), "near_error_bias_m": float(error.mean()),
-            "near_error_rms_m": float(np.sqrt((error ** 2).mean())), "near_flipped_fraction": float(flipped.mean())}
+    return {
+        "case": case,
+        "n": len(rows),
+        "mpm_influence_std_m": float(influence[:, 0].std()),
+        "r2_measured": r_squared(influence[:, 0], influence[:, 2]),
+        "r2_interpolated": r_squared(influence[:, 1], influence[:, 3]),
+        "r2_baseline_measured": r_squared(influence[:, 0], influence[:, 4]),
+        "r2_baseline_interpolated": r_squared(influence[:, 1], influence[:, 5]),
+        "near_points": int(moved.size),
+        "near_error_bias_m": float(error.mean()),
+        "near_error_rms_m": float(np.sqrt((error**2).mean())),
+        "near_flipped_fraction": float(flipped.mean()),
+    }
 
 
 def markdown(rows: list[dict[str, float | str | int]], baseline_cfl: float) -> str:
     """The results as a table."""
-    lines = [f"| case | n | MPM's I std (m) | R² of I, measured | interpolated | MPM at CFL {baseline_cfl:g}: measured "
-             "/ interpolated | near 1 m: points | bias (m) | RMS (m) | flipped |", "|---" * 10 + "|"]
-    lines += [f"| {r['case']} | {r['n']} | {r['mpm_influence_std_m']:.2f} | {r['r2_measured']:.3f} | "
-              f"{r['r2_interpolated']:.3f} | {r['r2_baseline_measured']:.3f} / {r['r2_baseline_interpolated']:.3f} | "
-              f"{r['near_points']} | {r['near_error_bias_m']:+.3f} | {r['near_error_rms_m']:.3f} | "
-              f"{r['near_flipped_fraction']:.3f} |" for r in rows]
+    lines = [
+        f"| case | n | MPM's I std (m) | R² of I, measured | interpolated | MPM at CFL {baseline_cfl:g}: measured "
+        "/ interpolated | near 1 m: points | bias (m) | RMS (m) | flipped |",
+        "|---" * 10 + "|",
+    ]
+    lines += [
+        f"| {r['case']} | {r['n']} | {r['mpm_influence_std_m']:.2f} | {r['r2_measured']:.3f} | "
+        f"{r['r2_interpolated']:.3f} | {r['r2_baseline_measured']:.3f} / {r['r2_baseline_interpolated']:.3f} | "
+        f"{r['near_points']} | {r['near_error_bias_m']:+.3f} | {r['near_error_rms_m']:.3f} | "
+        f"{r['near_flipped_fraction']:.3f} |"
+        for r in rows
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -117,32 +139,45 @@ def main() -> None:
     parser.add_argument("--cases", nargs="+", default=["case1", "case2", "case3", "case4"])
     parser.add_argument("--realizations", type=int, default=32)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--baseline-cfl", type=float, default=0.15,
-                        help="the same MPM at this CFL number (default config: 0.2): how far I moves under an "
-                             "immaterial numerical change")
+    parser.add_argument(
+        "--baseline-cfl",
+        type=float,
+        default=0.15,
+        help="the same MPM at this CFL number (default config: 0.2): how far I moves under an "
+        "immaterial numerical change",
+    )
     parser.add_argument("--output", default=str(REPO / "benchmarks" / "results" / "scarp_resolution"))
     args = parser.parse_args()
-    jobs = [(case, list(range(i, min(i + 8, args.realizations))))
-            for case in args.cases for i in range(0, args.realizations, 8)]
+    jobs = [
+        (case, list(range(i, min(i + 8, args.realizations))))
+        for case in args.cases
+        for i in range(0, args.realizations, 8)
+    ]
     with ProcessPoolExecutor(args.workers) as pool:
-        parts = list(pool.map(run, [case for case, _ in jobs], [chunk for _, chunk in jobs],
-                              [args.baseline_cfl] * len(jobs)))
+        parts = list(
+            pool.map(run, [case for case, _ in jobs], [chunk for _, chunk in jobs], [args.baseline_cfl] * len(jobs))
+        )
     results, whole = [], []
     for case in args.cases:
         rows = [row for (name, _), part in zip(jobs, parts) if name == case for row in part]
         for label, subset in (("first 16 (the validation's)", rows[:16]), (f"all {len(rows)}", rows)):
             result = summary(case, subset) | {"subset": label}
             results.append(result)
-            print(f"{case}, {label}: I R² {result['r2_measured']:.3f} as the pipeline measures it, "
-                  f"{result['r2_interpolated']:.3f} with the scarp interpolated (MPM's I std "
-                  f"{result['mpm_influence_std_m']:.2f} m); MPM at CFL {args.baseline_cfl:g} against MPM "
-                  f"{result['r2_baseline_measured']:.3f} / {result['r2_baseline_interpolated']:.3f}; near 1 m the "
-                  f"surrogate's displacement error {result['near_error_bias_m']:+.3f} m bias, "
-                  f"{result['near_error_rms_m']:.3f} m RMS, {result['near_flipped_fraction']:.3f} flipped", flush=True)
-        whole.append(result)   # the last subset: all of the case's realizations
+            print(
+                f"{case}, {label}: I R² {result['r2_measured']:.3f} as the pipeline measures it, "
+                f"{result['r2_interpolated']:.3f} with the scarp interpolated (MPM's I std "
+                f"{result['mpm_influence_std_m']:.2f} m); MPM at CFL {args.baseline_cfl:g} against MPM "
+                f"{result['r2_baseline_measured']:.3f} / {result['r2_baseline_interpolated']:.3f}; near 1 m the "
+                f"surrogate's displacement error {result['near_error_bias_m']:+.3f} m bias, "
+                f"{result['near_error_rms_m']:.3f} m RMS, {result['near_flipped_fraction']:.3f} flipped",
+                flush=True,
+            )
+        whole.append(result)  # the last subset: all of the case's realizations
     output = Path(args.output)
-    output.with_suffix(".json").write_text(json.dumps({"realizations": args.realizations, "baseline_cfl": args.baseline_cfl,
-                                                       "results": results}, indent=2) + "\n")
+    output.with_suffix(".json").write_text(
+        json.dumps({"realizations": args.realizations, "baseline_cfl": args.baseline_cfl, "results": results}, indent=2)
+        + "\n"
+    )
     output.with_suffix(".md").write_text(markdown(whole, args.baseline_cfl))
 
 

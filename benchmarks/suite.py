@@ -32,6 +32,7 @@ thread; a GNS rollout includes its MPM warm-up, ``montecarlo.rollout.warmup_s``)
 Writes ``benchmarks/results/suite.json``, ``suite.md`` and ``pareto.png`` (time per realization
 against error, every route, the Pareto front drawn).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -53,15 +54,22 @@ import torch  # noqa: E402
 from rgns.cbgeo.runner import MPMDiverged, run_cbgeo, trajectory_from_cbgeo  # noqa: E402
 from rgns.cbgeo.writer import write_case  # noqa: E402
 from rgns.config import load_config  # noqa: E402
-from rgns.shipped import MODELS  # noqa: E402
+from rgns.endstate.model import load_model  # noqa: E402
 from rgns.gns.rollout import RolloutSettings  # noqa: E402
 from rgns.gns.train import load_simulator, settings_from_config, train  # noqa: E402
 from rgns.metrics import MetricSettings  # noqa: E402
-from rgns.endstate.model import load_model  # noqa: E402
-from rgns.montecarlo import (Simulated, factor_of_safety, measure, rollout_settings, simulate_endstate,  # noqa: E402
-                             simulate_gns, simulate_mpm)
+from rgns.montecarlo import (
+    Simulated,
+    factor_of_safety,
+    measure,
+    rollout_settings,
+    simulate_endstate,  # noqa: E402
+    simulate_gns,
+    simulate_mpm,
+)
 from rgns.realizations import CaseInputs, draw_realization  # noqa: E402
 from rgns.screening import ScreenSettings  # noqa: E402
+from rgns.shipped import MODELS  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
@@ -82,8 +90,17 @@ def case_inputs(config: dict, case: str, cell_size_m: float, friction_mean_deg: 
 def measured(batch, simulated, config: dict) -> list[dict]:
     """Each realization's Monte Carlo table row, measured as rgns.montecarlo measures it."""
     mpm = config["mpm"]
-    return [measure(r, result, MetricSettings(**config["metrics"]), mpm["density_kg_m3"], mpm["frame_interval_s"],
-                    mpm["gravity_m_s2"]) for r, result in zip(batch, simulated)]
+    return [
+        measure(
+            r,
+            result,
+            MetricSettings(**config["metrics"]),
+            mpm["density_kg_m3"],
+            mpm["frame_interval_s"],
+            mpm["gravity_m_s2"],
+        )
+        for r, result in zip(batch, simulated)
+    ]
 
 
 def errors(rows: list[dict], reference: list[dict]) -> dict:
@@ -93,7 +110,9 @@ def errors(rows: list[dict], reference: list[dict]) -> dict:
     for key in METRICS:
         values = np.array([ref[key] for ref in reference if ref["status"] == "ok"])
         spread = float(np.ptp(values)) or 1.0
-        out[key] = float(np.mean([abs(r[key] - ref[key]) for r, ref in pairs]) / spread * 100) if pairs else float("nan")
+        out[key] = (
+            float(np.mean([abs(r[key] - ref[key]) for r, ref in pairs]) / spread * 100) if pairs else float("nan")
+        )
     out["mean"] = float(np.mean([out[key] for key in METRICS]))
     out["ok"] = len(pairs)
     return out
@@ -126,7 +145,7 @@ def run_endstate_route(config: dict, model: Path, n: int) -> tuple[list[dict], f
     batch = [draw_realization(case_inputs(config, "case1", config["mesh"]["cell_size_m"]), i) for i in range(n)]
     size = config["montecarlo"]["batch_size"]
     start = time.perf_counter()
-    simulated = [s for k in range(0, n, size) for s in simulate_endstate(surrogate, batch[k:k + size])]
+    simulated = [s for k in range(0, n, size) for s in simulate_endstate(surrogate, batch[k : k + size])]
     return measured(batch, simulated, config), (time.perf_counter() - start) / n
 
 
@@ -159,8 +178,14 @@ def train_variant(config: dict, models: Path, name: str, steps: int, **model) ->
     out = models / name
     target = out / "gns.pt"
     if not target.exists():
-        train(replace(model_settings, **model), replace(train_settings, steps=steps, threads=2),
-              str(REPO / "results/dataset/train.h5"), str(REPO / "results/dataset/valid.h5"), out, target)
+        train(
+            replace(model_settings, **model),
+            replace(train_settings, steps=steps, threads=2),
+            str(REPO / "results/dataset/train.h5"),
+            str(REPO / "results/dataset/valid.h5"),
+            out,
+            target,
+        )
         torch.set_num_threads(1)
     return target
 
@@ -178,11 +203,19 @@ def screen_benchmark(config: dict, n: int, frames: int, friction_mean_deg: float
     mpm_s = (time.perf_counter() - start) / n
     skipped = [settings.skips(fs) for fs in safety]
     false_skips = [row["index"] for row, skip in zip(rows, skipped) if skip and row.get("runout_m", 0.0) > 0.0]
-    return {"friction_mean_deg": friction_mean_deg, "threshold": settings.threshold, "n": n,
-            "factor_of_safety": safety, "mpm_runout_m": [row.get("runout_m") for row in rows],
-            "mpm_volume_m2": [row.get("volume_m2") for row in rows], "screened": int(sum(skipped)),
-            "false_skips": false_skips, "screen_s_per_realization": screen_s, "mpm_s_per_realization": mpm_s,
-            "time_saved_fraction": sum(skipped) / n - screen_s / mpm_s}
+    return {
+        "friction_mean_deg": friction_mean_deg,
+        "threshold": settings.threshold,
+        "n": n,
+        "factor_of_safety": safety,
+        "mpm_runout_m": [row.get("runout_m") for row in rows],
+        "mpm_volume_m2": [row.get("volume_m2") for row in rows],
+        "screened": int(sum(skipped)),
+        "false_skips": false_skips,
+        "screen_s_per_realization": screen_s,
+        "mpm_s_per_realization": mpm_s,
+        "time_saved_fraction": sum(skipped) / n - screen_s / mpm_s,
+    }
 
 
 def pareto_plot(routes: dict, path: Path) -> None:
@@ -204,8 +237,10 @@ def pareto_plot(routes: dict, path: Path) -> None:
     ax.set_xscale("log")
     ax.set_xlabel("wall time per realization (s, one CPU thread)")
     ax.set_ylabel("error in R, V, I (mean abs., % of range)")
-    ax.set_title("Time against error, against the embedded MPM at 0.5 m cells, cfl 0.1 (blue: MPM, orange: GNS, green: end-state)",
-                 fontsize=10)
+    ax.set_title(
+        "Time against error, against the embedded MPM at 0.5 m cells, cfl 0.1 (blue: MPM, orange: GNS, green: end-state)",
+        fontsize=10,
+    )
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
     fig.savefig(path, dpi=150)
@@ -213,23 +248,34 @@ def pareto_plot(routes: dict, path: Path) -> None:
 
 
 def markdown(record: dict) -> str:
-    lines = [f"Realizations: {record['n']} (case 1, {record['duration_s']:g} s); GNS variants trained "
-             f"{record['train_steps']} steps; machine: {record['machine']}", "",
-             "| route | s per realization | error R % | error V % | error I % | error mean % | not ok |",
-             "|---|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        f"Realizations: {record['n']} (case 1, {record['duration_s']:g} s); GNS variants trained "
+        f"{record['train_steps']} steps; machine: {record['machine']}",
+        "",
+        "| route | s per realization | error R % | error V % | error I % | error mean % | not ok |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for name, route in record["routes"].items():
         e = route["error"]
-        lines.append(f"| {name} | {route['s_per_realization']:.2f} | {e['runout_m']:.1f} | {e['volume_m2']:.1f} | "
-                     f"{e['influence_m']:.1f} | {e['mean']:.1f} | {record['n'] - e['ok']} |")
+        lines.append(
+            f"| {name} | {route['s_per_realization']:.2f} | {e['runout_m']:.1f} | {e['volume_m2']:.1f} | "
+            f"{e['influence_m']:.1f} | {e['mean']:.1f} | {record['n'] - e['ok']} |"
+        )
     skip = record["skipping"]
-    lines += ["", f"GNS rest-skipping + early stop vs neither: {skip['speedup']:.2f}x faster; change of the R, V, I "
-              f"errors: {skip['error_change_pct_of_range']} % of range (max per realization "
-              f"{skip['max_change_pct_of_range']} %)."]
+    lines += [
+        "",
+        f"GNS rest-skipping + early stop vs neither: {skip['speedup']:.2f}x faster; change of the R, V, I "
+        f"errors: {skip['error_change_pct_of_range']} % of range (max per realization "
+        f"{skip['max_change_pct_of_range']} %).",
+    ]
     s = record["screen"]
-    lines += ["", f"Screen (friction mean {s['friction_mean_deg']} deg, threshold {s['threshold']}): {s['screened']} of "
-              f"{s['n']} screened, false skips (screened but the MPM ran out): {s['false_skips']}; "
-              f"{s['screen_s_per_realization'] * 1000:.0f} ms per screen against {s['mpm_s_per_realization']:.2f} s "
-              f"per MPM realization; time saved {s['time_saved_fraction']:.0%}."]
+    lines += [
+        "",
+        f"Screen (friction mean {s['friction_mean_deg']} deg, threshold {s['threshold']}): {s['screened']} of "
+        f"{s['n']} screened, false skips (screened but the MPM ran out): {s['false_skips']}; "
+        f"{s['screen_s_per_realization'] * 1000:.0f} ms per screen against {s['mpm_s_per_realization']:.2f} s "
+        f"per MPM realization; time saved {s['time_saved_fraction']:.0%}.",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -243,8 +289,14 @@ def main() -> None:
     parser.add_argument("--models", type=Path, default=OUT / "models", help="where trained variants are kept")
     parser.add_argument("--replot", action="store_true", help="redraw pareto.png and suite.md from suite.json")
     parser.add_argument("--cbgeo", metavar="MPM", help="add a CB-Geo route (this mpm binary) to suite.json")
-    parser.add_argument("--endstate", nargs="?", const=MODELS / "endstate.pt", type=Path, metavar="MODEL",
-                        help="add the end-state surrogate route (default: the shipped one) to suite.json")
+    parser.add_argument(
+        "--endstate",
+        nargs="?",
+        const=MODELS / "endstate.pt",
+        type=Path,
+        metavar="MODEL",
+        help="add the end-state surrogate route (default: the shipped one) to suite.json",
+    )
     args = parser.parse_args()
     if args.replot or args.cbgeo or args.endstate:
         record = json.loads((OUT / "suite.json").read_text())
@@ -253,8 +305,11 @@ def main() -> None:
             config = load_config(REPO / "config" / "config.yaml")
             rows, seconds = run_endstate_route(config, args.endstate, record["n"])
             name = "end-state surrogate (shipped)"
-            record["routes"][name] = {"s_per_realization": seconds, "rows": rows,
-                                      "error": errors(rows, record["routes"]["reference"]["rows"])}
+            record["routes"][name] = {
+                "s_per_realization": seconds,
+                "rows": rows,
+                "error": errors(rows, record["routes"]["reference"]["rows"]),
+            }
             print(f"{name}: {seconds:.4f} s per realization, error {record['routes'][name]['error']}", flush=True)
             (OUT / "suite.json").write_text(json.dumps(record, indent=1, default=float) + "\n")
         if args.cbgeo:
@@ -262,8 +317,11 @@ def main() -> None:
             config = load_config(REPO / "config" / "config.yaml")
             rows, seconds = run_cbgeo_route(config, args.cbgeo, record["n"], record["frames"])
             name = f"CB-Geo {config['mesh']['cell_size_m']:g} m, -p 1"
-            record["routes"][name] = {"s_per_realization": seconds, "rows": rows,
-                                      "error": errors(rows, record["routes"]["reference"]["rows"])}
+            record["routes"][name] = {
+                "s_per_realization": seconds,
+                "rows": rows,
+                "error": errors(rows, record["routes"]["reference"]["rows"]),
+            }
             print(f"{name}: {seconds:.2f} s per realization, error {record['routes'][name]['error']}", flush=True)
             (OUT / "suite.json").write_text(json.dumps(record, indent=1, default=float) + "\n")
         pareto_plot(record["routes"], OUT / "pareto.png")
@@ -296,10 +354,14 @@ def main() -> None:
     record("GNS default, early stop", *run_gns_route(config, default_model, n, frames, replace(plain, early_stop=True)))
     record("GNS default, both (MC default)", *run_gns_route(config, default_model, n, frames, mc))
     for rest in (2.5e-4, 1e-3):
-        record(f"GNS default, both, rest {rest:g} m/frame",
-               *run_gns_route(config, default_model, n, frames, replace(mc, rest_velocity=rest)))
-    variants = {"GNS latent 16, 3 MP": {"latent_size": 16, "mlp_width": 16, "message_passing_steps": 3},
-                "GNS radius 1.0 m": {"radius_m": 1.0}}
+        record(
+            f"GNS default, both, rest {rest:g} m/frame",
+            *run_gns_route(config, default_model, n, frames, replace(mc, rest_velocity=rest)),
+        )
+    variants = {
+        "GNS latent 16, 3 MP": {"latent_size": 16, "mlp_width": 16, "message_passing_steps": 3},
+        "GNS radius 1.0 m": {"radius_m": 1.0},
+    }
     for name, model in variants.items() if args.train_steps else ():
         path = train_variant(config, args.models, name.replace(" ", "_").replace(",", ""), args.train_steps, **model)
         record(f"{name}, both", *run_gns_route(config, path, n, frames, mc))
@@ -313,14 +375,25 @@ def main() -> None:
     per_realization = {}
     for key in METRICS:
         spread = float(np.ptp([r[key] for r in reference if r["status"] == "ok"])) or 1.0
-        diffs = [abs(a[key] - b[key]) for a, b in zip(neither["rows"], both["rows"])
-                 if a["status"] == b["status"] == "ok"]
+        diffs = [
+            abs(a[key] - b[key]) for a, b in zip(neither["rows"], both["rows"]) if a["status"] == b["status"] == "ok"
+        ]
         per_realization[key] = round(max(diffs) / spread * 100, 2) if diffs else None
-    skipping = {"speedup": neither["s_per_realization"] / both["s_per_realization"],
-                "error_change_pct_of_range": change, "max_change_pct_of_range": per_realization}
-    result = {"n": n, "frames": frames, "duration_s": duration_s, "train_steps": args.train_steps, "routes": routes, "skipping": skipping,
-              "screen": screen_benchmark(config, n, frames, args.screen_friction),
-              "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, 1 thread, CPU"}
+    skipping = {
+        "speedup": neither["s_per_realization"] / both["s_per_realization"],
+        "error_change_pct_of_range": change,
+        "max_change_pct_of_range": per_realization,
+    }
+    result = {
+        "n": n,
+        "frames": frames,
+        "duration_s": duration_s,
+        "train_steps": args.train_steps,
+        "routes": routes,
+        "skipping": skipping,
+        "screen": screen_benchmark(config, n, frames, args.screen_friction),
+        "machine": f"{platform.processor() or platform.machine()}, torch {torch.__version__}, 1 thread, CPU",
+    }
     (OUT / "suite.json").write_text(json.dumps(result, indent=1, default=float) + "\n")
     (OUT / "suite.md").write_text(markdown(result))
     pareto_plot(routes, OUT / "pareto.png")

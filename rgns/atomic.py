@@ -1,10 +1,11 @@
 """Files written under a temporary name and renamed only when complete, so that a killed job never
 leaves a half-written file under the name a later step (or a resumed run) would trust."""
+
 from __future__ import annotations
 
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 
 @contextmanager

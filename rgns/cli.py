@@ -1,4 +1,5 @@
 """The ``rgns`` command: helpers beside the Snakemake workflow."""
+
 from __future__ import annotations
 
 import argparse
@@ -44,8 +45,10 @@ def _trajectory_paths(cases: list[Case], out: Path) -> list[Path]:
     for path in sorted(set(paths)):
         clashing = [case.source for case, other in zip(cases, paths) if other == path]
         if len(clashing) > 1:
-            raise CaseError(f"{' and '.join(clashing)} would all write {path} (the same set name and index, or "
-                            "directories of the same name): run them with separate --out directories")
+            raise CaseError(
+                f"{' and '.join(clashing)} would all write {path} (the same set name and index, or "
+                "directories of the same name): run them with separate --out directories"
+            )
     return paths
 
 
@@ -60,8 +63,15 @@ def _mpm(args: argparse.Namespace) -> int:
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     torch.set_num_threads(args.threads)
-    settings = EngineSettings(shape_function=args.shape, cfl=args.cfl, dt_max_s=args.dt_max, pic_blend=args.pic_blend,
-                              early_stop=not args.no_early_stop, dtype=args.dtype, device=args.device)
+    settings = EngineSettings(
+        shape_function=args.shape,
+        cfl=args.cfl,
+        dt_max_s=args.dt_max,
+        pic_blend=args.pic_blend,
+        early_stop=not args.no_early_stop,
+        dtype=args.dtype,
+        device=args.device,
+    )
     try:
         cases = [read_case(directory) for directory in args.case_dirs]
         paths = _trajectory_paths(cases, args.out) if args.out else [None] * len(cases)
@@ -70,15 +80,23 @@ def _mpm(args: argparse.Namespace) -> int:
         print(f"rgns mpm: {error}", file=sys.stderr)
         return 2
     particle_steps = sum(len(case.positions) for case in cases) * results[0].steps
-    print(f"{len(cases)} case(s), {results[0].steps} steps, {results[0].wall_s:.2f} s wall, "
-          f"{particle_steps / results[0].wall_s:.3g} particle-steps/s (counting every case at every step)")
+    print(
+        f"{len(cases)} case(s), {results[0].steps} steps, {results[0].wall_s:.2f} s wall, "
+        f"{particle_steps / results[0].wall_s:.3g} particle-steps/s (counting every case at every step)"
+    )
     for case, result, path in zip(cases, results, paths):
         stop = f", stopped at {result.stopped_at_s:.2f} s" if result.stopped_at_s is not None else ""
         print(f"  {case.source}: {result.status}{stop}")
         if args.out:
-            trajectory = to_trajectory(case, result.positions, result.time_s, "embedded",
-                                       {"engine": "embedded", "settings": vars(settings)},
-                                       status=result.status, energies=result.energies)
+            trajectory = to_trajectory(
+                case,
+                result.positions,
+                result.time_s,
+                "embedded",
+                {"engine": "embedded", "settings": vars(settings)},
+                status=result.status,
+                energies=result.energies,
+            )
             write_trajectory(path, trajectory)
     return 0 if all(result.status == "ok" for result in results) else 3
 
@@ -117,14 +135,26 @@ def main(argv: list[str] | None = None) -> int:
     reference.add_argument("--out", type=Path, help="file to write (default: stdout)")
     reference.set_defaults(run=_config_reference)
     mpm = commands.add_parser("mpm", help="run case directories (sharing a grid) through the embedded MPM engine")
-    mpm.add_argument("case_dirs", nargs="+", type=Path,
-                     help="CB-Geo case directories (rgns-written or plain CB-Geo), run as one batch")
-    mpm.add_argument("--out", type=Path, help="directory for the trajectory files <set>_<index>.h5 "
-                                              "(a plain CB-Geo case: <directory name>_0000.h5)")
-    mpm.add_argument("--duration", type=float,
-                     help="simulated time (s); default: the case's analysis.dt x analysis.nsteps")
-    mpm.add_argument("--shape", choices=["linear", "bspline"], default="bspline",
-                     help="shape functions: bspline (locking-free, the default) or linear (CB-Geo's ED2Q4)")
+    mpm.add_argument(
+        "case_dirs",
+        nargs="+",
+        type=Path,
+        help="CB-Geo case directories (rgns-written or plain CB-Geo), run as one batch",
+    )
+    mpm.add_argument(
+        "--out",
+        type=Path,
+        help="directory for the trajectory files <set>_<index>.h5 (a plain CB-Geo case: <directory name>_0000.h5)",
+    )
+    mpm.add_argument(
+        "--duration", type=float, help="simulated time (s); default: the case's analysis.dt x analysis.nsteps"
+    )
+    mpm.add_argument(
+        "--shape",
+        choices=["linear", "bspline"],
+        default="bspline",
+        help="shape functions: bspline (locking-free, the default) or linear (CB-Geo's ED2Q4)",
+    )
     mpm.add_argument("--cfl", type=float, default=0.2)
     mpm.add_argument("--dt-max", type=float, default=2.5e-3)
     mpm.add_argument("--pic-blend", type=float, default=0.0)
@@ -139,7 +169,9 @@ def main(argv: list[str] | None = None) -> int:
     trainer.add_argument("--valid", type=Path, required=True, help="packed validation set (dataset/valid.h5)")
     trainer.add_argument("--out", type=Path, required=True, help="directory for gns.pt, history.csv, checkpoints/")
     trainer.set_defaults(run=_train)
-    card = commands.add_parser("model-card", help="render a model card (card.json) as Markdown, with a validation table")
+    card = commands.add_parser(
+        "model-card", help="render a model card (card.json) as Markdown, with a validation table"
+    )
     card.add_argument("card", type=Path, help="card.json")
     card.add_argument("--validation", type=Path, help="results/report/validation/table.md of a run with this model")
     card.add_argument("--out", type=Path, required=True, help="card.md to write")

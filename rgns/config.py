@@ -4,12 +4,14 @@ The JSON schema (``config/schema.yaml``) types, ranges and defaults every key; t
 cover what a schema cannot say: [min, max] order, polygons inside the domain, references from
 sets to geometry families, a mesh that tiles the domain.
 """
+
 from __future__ import annotations
 
 import difflib
 import logging
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import jsonschema
 import numpy as np
@@ -51,8 +53,13 @@ def key_path(parts: Iterator[Any] | list[Any]) -> str:
 def _nearest(error: jsonschema.ValidationError) -> str:
     """'; did you mean ...' for each unexpected key with a close valid name at its level."""
     valid = list(error.schema.get("properties", {}))
-    hints = [f"'{match[0]}' for '{key}'" for key in error.instance if key not in valid
-             for match in [difflib.get_close_matches(key, valid, n=1, cutoff=0.6)] if match]
+    hints = [
+        f"'{match[0]}' for '{key}'"
+        for key in error.instance
+        if key not in valid
+        for match in [difflib.get_close_matches(key, valid, n=1, cutoff=0.6)]
+        if match
+    ]
     return f"; did you mean {', '.join(hints)}?" if hints else ""
 
 
@@ -69,7 +76,7 @@ def _describe(error: jsonschema.ValidationError) -> str:
     return f"config key '{where}' = {error.instance!r}: {reason}"
 
 
-SCALAR_TYPES = {"integer": int, "number": (int, float), "boolean": bool}
+SCALAR_TYPES: dict[str, type | tuple[type, ...]] = {"integer": int, "number": (int, float), "boolean": bool}
 
 
 def coerce_text_values(config: dict[str, Any], schema: dict[str, Any]) -> None:
@@ -83,8 +90,14 @@ def coerce_text_values(config: dict[str, Any], schema: dict[str, Any]) -> None:
                 continue
             value = yaml.safe_load(sub.instance)
             kinds = [expected] if isinstance(expected, str) else expected
-            if any(isinstance(value, SCALAR_TYPES.get(kind, ())) and not (kind != "boolean" and isinstance(value, bool))
-                   for kind in kinds) and sub.absolute_path:
+            if (
+                any(
+                    isinstance(value, SCALAR_TYPES.get(kind, ()))
+                    and not (kind != "boolean" and isinstance(value, bool))
+                    for kind in kinds
+                )
+                and sub.absolute_path
+            ):
                 *parents, last = list(sub.absolute_path)
                 target = config
                 for part in parents:
@@ -137,8 +150,7 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
         cells = extent / cell
         if abs(cells - round(cells)) > 1e-9 * max(cells, 1.0):
             errors.append(
-                f"config key 'domain.{name}' = {extent!r}: not a whole number of cells of "
-                f"mesh.cell_size_m = {cell!r}"
+                f"config key 'domain.{name}' = {extent!r}: not a whole number of cells of mesh.cell_size_m = {cell!r}"
             )
 
     for fam_name, family in config["geometry"]["families"].items():
@@ -154,8 +166,7 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
                         f"{vertex[axis]!r}: outside the domain [0, {limit}] "
                         f"(domain.{'length_m' if axis == 'x_m' else 'height_m'})"
                     )
-        centre = np.array([[np.mean(as_range(v["x_m"])), np.mean(as_range(v["y_m"]))]
-                           for v in family["vertices"]])
+        centre = np.array([[np.mean(as_range(v["x_m"])), np.mean(as_range(v["y_m"]))] for v in family["vertices"]])
         room = config["geometry"]["runout_room_m"]
         for problem in polygon_problems(centre, length, height, room=room, headroom=cell):
             errors.append(
@@ -171,14 +182,18 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
         ratio = numerator / denominator
         if abs(ratio - round(ratio)) > 1e-6 * ratio:
             other = "dt_s" if name == "frame_interval_s" else "frame_interval_s"
-            errors.append(f"config key 'mpm.{name}' = {numerator!r}: not a whole number of mpm.{other} = {denominator!r}")
+            errors.append(
+                f"config key 'mpm.{name}' = {numerator!r}: not a whole number of mpm.{other} = {denominator!r}"
+            )
 
     if not config["sets"]:
         errors.append("config key 'sets': no set and no site: give sets, or a site (config key 'site')")
     missing = [name for name in ("train", "valid") if name not in config["sets"]]
     if config["gns"]["model"] != "shipped" and missing:
-        errors.append(f"config key 'sets': no {' and no '.join(missing)} set, which gns.model = "
-                      f"{config['gns']['model']!r} trains on (gns.model: shipped needs none)")
+        errors.append(
+            f"config key 'sets': no {' and no '.join(missing)} set, which gns.model = "
+            f"{config['gns']['model']!r} trains on (gns.model: shipped needs none)"
+        )
     families = config["geometry"]["families"]
     for set_name, groups in config["sets"].items():
         for g, group in enumerate(groups):
@@ -187,8 +202,14 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
                     f"config key 'sets.{set_name}[{g}].family' = {group['family']!r}: no such "
                     f"family under geometry.families (have: {', '.join(sorted(families))})"
                 )
-    return errors + _montecarlo_errors(config) + _hazard_errors(config) + _shipped_errors(config) \
-        + _shipped_endstate_errors(config) + _shipped_tuned_errors(config)
+    return (
+        errors
+        + _montecarlo_errors(config)
+        + _hazard_errors(config)
+        + _shipped_errors(config)
+        + _shipped_endstate_errors(config)
+        + _shipped_tuned_errors(config)
+    )
 
 
 def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
@@ -197,11 +218,16 @@ def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
 
     known = set(REQUIRED[family["generator"]])
     given = set(family["params"])
-    errors = [f"config key 'geometry.families.{fam_name}.params': lacks {name!r}, which generator "
-              f"{family['generator']!r} needs" for name in sorted(known - given)]
-    return errors + [f"config key 'geometry.families.{fam_name}.params.{name}': generator "
-                     f"{family['generator']!r} has no such parameter (it has: {', '.join(sorted(known))})"
-                     for name in sorted(given - known)]
+    errors = [
+        f"config key 'geometry.families.{fam_name}.params': lacks {name!r}, which generator "
+        f"{family['generator']!r} needs"
+        for name in sorted(known - given)
+    ]
+    return errors + [
+        f"config key 'geometry.families.{fam_name}.params.{name}': generator "
+        f"{family['generator']!r} has no such parameter (it has: {', '.join(sorted(known))})"
+        for name in sorted(given - known)
+    ]
 
 
 def _shipped_errors(config: dict[str, Any]) -> list[str]:
@@ -230,8 +256,12 @@ def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
         card = read_card(MODELS, "endstate_card.json" if model == "shipped" else "endstate_general_card.json")
         check_serves(card, config)
     except ShippedModelError as error:
-        other = (" — or endstate.model: general, the geometry-general model for any slope in a domain up to "
-                 "80 x 20 m (rgns/models/endstate_general_card.md)" if model == "shipped" else "")
+        other = (
+            " — or endstate.model: general, the geometry-general model for any slope in a domain up to "
+            "80 x 20 m (rgns/models/endstate_general_card.md)"
+            if model == "shipped"
+            else ""
+        )
         return [f"config key 'endstate.model' = {model!r}: {error}{other}"]
     for line in outside_ranges(card, config, config["montecarlo"]["cases"]):
         log.warning(line)
@@ -259,33 +289,47 @@ def _montecarlo_errors(config: dict[str, Any]) -> list[str]:
     test_cases = [name for name in config["sets"] if name not in ("train", "valid")]
     for k, case in enumerate(section["cases"]):
         if case not in test_cases:
-            errors.append(f"config key 'montecarlo.cases[{k}]' = {case!r}: not a test-case set "
-                          f"(test cases: {', '.join(test_cases) or 'none'})")
+            errors.append(
+                f"config key 'montecarlo.cases[{k}]' = {case!r}: not a test-case set "
+                f"(test cases: {', '.join(test_cases) or 'none'})"
+            )
         elif len(config["sets"][case]) != 1:
-            errors.append(f"config key 'montecarlo.cases[{k}]' = {case!r}: set {case!r} has "
-                          f"{len(config['sets'][case])} groups; a Monte Carlo case needs exactly one")
+            errors.append(
+                f"config key 'montecarlo.cases[{k}]' = {case!r}: set {case!r} has "
+                f"{len(config['sets'][case])} groups; a Monte Carlo case needs exactly one"
+            )
     if section["chunk_size"] % section["batch_size"]:
-        errors.append(f"config key 'montecarlo.chunk_size' = {section['chunk_size']!r}: not a multiple of "
-                      f"montecarlo.batch_size = {section['batch_size']!r} (batches must not straddle chunks)")
+        errors.append(
+            f"config key 'montecarlo.chunk_size' = {section['chunk_size']!r}: not a multiple of "
+            f"montecarlo.batch_size = {section['batch_size']!r} (batches must not straddle chunks)"
+        )
     fidelity = section["fidelity"]
     if fidelity["paired"] and not 2 <= fidelity["paired"] <= section["realizations"]:
-        errors.append(f"config key 'montecarlo.fidelity.paired' = {fidelity['paired']!r}: 0 (off) or between 2 "
-                      f"and montecarlo.realizations = {section['realizations']}")
+        errors.append(
+            f"config key 'montecarlo.fidelity.paired' = {fidelity['paired']!r}: 0 (off) or between 2 "
+            f"and montecarlo.realizations = {section['realizations']}"
+        )
     cap = fidelity["max_paired"]
     if cap is not None and not fidelity["paired"] <= cap <= section["realizations"]:
-        errors.append(f"config key 'montecarlo.fidelity.max_paired' = {cap!r}: between montecarlo.fidelity.paired = "
-                      f"{fidelity['paired']} and montecarlo.realizations = {section['realizations']}")
+        errors.append(
+            f"config key 'montecarlo.fidelity.max_paired' = {cap!r}: between montecarlo.fidelity.paired = "
+            f"{fidelity['paired']} and montecarlo.realizations = {section['realizations']}"
+        )
     if fidelity["paired"] and fidelity["high_cell_size_m"] >= config["mesh"]["cell_size_m"]:
-        errors.append(f"config key 'montecarlo.fidelity.high_cell_size_m' = {fidelity['high_cell_size_m']!r}: "
-                      f"must be finer than mesh.cell_size_m = {config['mesh']['cell_size_m']!r}")
+        errors.append(
+            f"config key 'montecarlo.fidelity.high_cell_size_m' = {fidelity['high_cell_size_m']!r}: "
+            f"must be finer than mesh.cell_size_m = {config['mesh']['cell_size_m']!r}"
+        )
     return errors
 
 
 def _hazard_errors(config: dict[str, Any]) -> list[str]:
     thresholds = config["hazard"]["zoning_thresholds"]
     if any(high <= low for high, low in zip(thresholds, thresholds[1:])):
-        return [f"config key 'hazard.zoning_thresholds' = {thresholds!r}: must be strictly decreasing "
-                "(extremely high, high, moderate, low)"]
+        return [
+            f"config key 'hazard.zoning_thresholds' = {thresholds!r}: must be strictly decreasing "
+            "(extremely high, high, moderate, low)"
+        ]
     return []
 
 

@@ -1,7 +1,9 @@
 """Render config/schema.yaml as a Markdown reference: one row per key, with type, default, range."""
+
 from __future__ import annotations
 
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 from rgns.config import SCHEMA_PATH, load_yaml
 
@@ -69,5 +71,7 @@ def config_reference(schema: dict[str, Any] | None = None) -> str:
         "|---|---|---|---|---|",
     ]
     for row in _rows(schema, schema, ""):
-        lines.append("| " + " | ".join(cell.replace("|", "\\|") if i != 1 else cell for i, cell in enumerate(row)) + " |")
+        lines.append(
+            "| " + " | ".join(cell.replace("|", "\\|") if i != 1 else cell for i, cell in enumerate(row)) + " |"
+        )
     return "\n".join(lines) + "\n"

@@ -6,6 +6,7 @@ growth; for CB-Geo an abort with "Particle outside the mesh domain") is written 
 "diverged: <reason>", named in the log, and the rest of the chunk goes on; packing leaves it out.
 Faults that are not results (a missing binary, an unreadable file) stop the job.
 """
+
 from __future__ import annotations
 
 import logging
@@ -38,8 +39,9 @@ def _diverged(case: Case, reason: str, provenance: dict[str, Any]):
     """A flagged trajectory for a run that gave no usable frames: the initial state, repeated."""
     frames = int(round(case.duration_s / case.frame_interval_s))
     positions = np.repeat(case.positions[None].astype(np.float32), frames, axis=0)
-    return to_trajectory(case, positions, np.arange(frames) * case.frame_interval_s, "cbgeo", provenance,
-                         status=f"diverged: {reason}")
+    return to_trajectory(
+        case, positions, np.arange(frames) * case.frame_interval_s, "cbgeo", provenance, status=f"diverged: {reason}"
+    )
 
 
 def _run_embedded(cases: list[Case], out_dir: Path, settings: dict[str, Any], compression: str) -> list[str]:
@@ -48,8 +50,15 @@ def _run_embedded(cases: list[Case], out_dir: Path, settings: dict[str, Any], co
     provenance = {"engine": "embedded", "mpm": settings}
     statuses = []
     for case, result in zip(cases, run_batch(cases, engine)):
-        trajectory = to_trajectory(case, result.positions, result.time_s, "embedded", provenance,
-                                   status=result.status, energies=result.energies)
+        trajectory = to_trajectory(
+            case,
+            result.positions,
+            result.time_s,
+            "embedded",
+            provenance,
+            status=result.status,
+            energies=result.energies,
+        )
         write_trajectory(out_dir / trajectory_name(case.index), trajectory, compression)
         stop = f", stopped at t = {result.stopped_at_s:.2f} s" if result.stopped_at_s is not None else ""
         (log.error if result.status != "ok" else log.info)("%s: %s%s", _label(case), result.status, stop)
@@ -58,16 +67,18 @@ def _run_embedded(cases: list[Case], out_dir: Path, settings: dict[str, Any], co
     return statuses
 
 
-def _run_cbgeo(cases: list[Case], out_dir: Path, scratch_root: Path, log_dir: Path, settings: dict[str, Any],
-               compression: str) -> list[str]:
+def _run_cbgeo(
+    cases: list[Case], out_dir: Path, scratch_root: Path, log_dir: Path, settings: dict[str, Any], compression: str
+) -> list[str]:
     provenance = {"engine": "cbgeo", "mpm": settings}
     statuses = []
     for case in cases:
         label, index = _label(case), case.index
         scratch = scratch_root / f"{index:04d}"
         try:
-            case, raw_dir, elapsed = run_cbgeo(case.directory, scratch, log_dir / f"{index:04d}.log",
-                                               settings["cbgeo"], label)
+            case, raw_dir, elapsed = run_cbgeo(
+                case.directory, scratch, log_dir / f"{index:04d}.log", settings["cbgeo"], label
+            )
             trajectory = trajectory_from_cbgeo(case, raw_dir, label, provenance)
             log.info("%s: CB-Geo finished in %.1f s", label, elapsed)
         except MPMDiverged as error:
@@ -80,8 +91,14 @@ def _run_cbgeo(cases: list[Case], out_dir: Path, scratch_root: Path, log_dir: Pa
     return statuses
 
 
-def simulate_chunk(case_dirs: list[str | Path], out_dir: str | Path, scratch_root: str | Path, log_dir: str | Path,
-                   settings: dict[str, Any], compression: str) -> list[str]:
+def simulate_chunk(
+    case_dirs: list[str | Path],
+    out_dir: str | Path,
+    scratch_root: str | Path,
+    log_dir: str | Path,
+    settings: dict[str, Any],
+    compression: str,
+) -> list[str]:
     """Simulate every case of a chunk; writes ``<index>.h5`` into ``out_dir``; returns the statuses."""
     engine = settings["engine"]
     if engine not in ENGINES:

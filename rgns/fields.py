@@ -6,6 +6,7 @@ nx × ny standard-normal matrix (:class:`KroneckerSampler`, the default), which 
 μ + σ·L z with L = chol(C) of the full nx·ny covariance (:class:`CholeskySampler`, the reference)
 for the same Z flattened row-major. Arrays are indexed [x, y].
 """
+
 from __future__ import annotations
 
 import zipfile
@@ -50,7 +51,7 @@ class FieldGrid:
     spacing_m: float
 
     @classmethod
-    def covering(cls, length_m: float, height_m: float, spacing_m: float) -> "FieldGrid":
+    def covering(cls, length_m: float, height_m: float, spacing_m: float) -> FieldGrid:
         nx = int(np.ceil(length_m / spacing_m - 1e-9))
         ny = int(np.ceil(height_m / spacing_m - 1e-9))
         return cls((np.arange(nx) + 0.5) * spacing_m, (np.arange(ny) + 0.5) * spacing_m, spacing_m)
@@ -94,8 +95,11 @@ class CholeskySampler:
         x, y = np.meshgrid(grid.x_m, grid.y_m, indexing="ij")  # row-major flatten = index i·ny + j
         x, y = x.ravel(), y.ravel()
         covariance = np.exp(
-            -2.0 * (np.abs(x[:, None] - x[None, :]) / correlation_length_x_m
-                    + np.abs(y[:, None] - y[None, :]) / correlation_length_y_m)
+            -2.0
+            * (
+                np.abs(x[:, None] - x[None, :]) / correlation_length_x_m
+                + np.abs(y[:, None] - y[None, :]) / correlation_length_y_m
+            )
         )
         self.factor = np.linalg.cholesky(covariance)
 

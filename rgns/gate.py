@@ -11,6 +11,7 @@ fraction of diverged rollouts must not exceed ``diverged_fraction_max``. A case 
 either simulated by MPM instead (``on_failure: fallback``) or stops the Monte Carlo with the
 failures named (``stop``).
 """
+
 from __future__ import annotations
 
 import json
@@ -51,7 +52,7 @@ class Verdict:
 
 
 def _bias_failure(row: pd.Series, limit: float, cell_size_m: float) -> str | None:
-    unit_tolerance = cell_size_m ** 2 if row["metric"] == "volume" else cell_size_m
+    unit_tolerance = cell_size_m**2 if row["metric"] == "volume" else cell_size_m
     if not math.isfinite(row["bias"]):
         return f"{row['metric']} bias not measurable (no rollout finished)"
     if row["mpm_mean"] == 0.0:
@@ -68,8 +69,13 @@ def _r2_bound(row: pd.Series) -> float:
     return row["r2_low"] if math.isfinite(row["r2_low"]) else row["r2"]
 
 
-def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict[str, Any],
-          cell_size_m: float, surrogate: str = "gns") -> dict[str, Verdict]:
+def judge(
+    table: pd.DataFrame,
+    summaries: list[dict[str, Any]],
+    acceptance: dict[str, Any],
+    cell_size_m: float,
+    surrogate: str = "gns",
+) -> dict[str, Verdict]:
     """The verdict of every case of a validation table (rows of case × metric) and its summaries, for
     the learned simulator ``surrogate`` (gns or endstate) the table's ``gns`` columns hold."""
     diverged = {item["case"]: item["diverged"] / max(item["realizations"], 1) for item in summaries}
@@ -82,14 +88,19 @@ def judge(table: pd.DataFrame, summaries: list[dict[str, Any]], acceptance: dict
         for _, row in rows.iterrows():
             limits = acceptance["metrics"][row["metric"]]
             if math.isfinite(row["r2"]):
-                evidence.append(f"{row['metric']} R² {row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}] "
-                                f"on {row['n']}")
+                evidence.append(
+                    f"{row['metric']} R² {row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}] on {row['n']}"
+                )
             if row["n"] < acceptance["min_realizations"]:
-                failures.append(f"{row['metric']}: {row['n']} finished pairs, fewer than the "
-                                f"{acceptance['min_realizations']} the gate needs (validation.acceptance.min_realizations)")
+                failures.append(
+                    f"{row['metric']}: {row['n']} finished pairs, fewer than the "
+                    f"{acceptance['min_realizations']} the gate needs (validation.acceptance.min_realizations)"
+                )
             elif math.isfinite(row["r2"]) and not _r2_bound(row) >= limits["r2_min"]:
-                failures.append(f"{row['metric']} R² {row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}]: "
-                                f"lower bound < {limits['r2_min']:g}")
+                failures.append(
+                    f"{row['metric']} R² {row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}]: "
+                    f"lower bound < {limits['r2_min']:g}"
+                )
             problem = _bias_failure(row, limits["relative_bias_max"], cell_size_m)
             if problem:
                 failures.append(problem)

@@ -6,6 +6,7 @@ simple, counter-clockwise with positive area, inside the domain with a cell of h
 leave ``runout_room_m`` free towards every side wall it does not rest against. Invalid draws are
 redrawn from the realization's own stream, so the result is still deterministic.
 """
+
 from __future__ import annotations
 
 import json
@@ -89,9 +90,7 @@ def polygon_problems(
     if x_min > WALL_TOLERANCE_M and x_min < room:
         problems.append(f"leaves {x_min:.6g} m to the left wall, less than the runout room {room} m")
     if x_max < length_m - WALL_TOLERANCE_M and length_m - x_max < room:
-        problems.append(
-            f"leaves {length_m - x_max:.6g} m to the right wall, less than the runout room {room} m"
-        )
+        problems.append(f"leaves {length_m - x_max:.6g} m to the right wall, less than the runout room {room} m")
     return problems
 
 

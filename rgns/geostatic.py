@@ -1,4 +1,5 @@
 """Geostatic initial stresses of a slope: σyy = −ρ g depth, σxx = σzz = K0 σyy (tension positive)."""
+
 from __future__ import annotations
 
 import numpy as np

@@ -5,6 +5,7 @@ Each npz entry ``simulation_trajectory_<k>`` is the tuple (positions [T, N, 2], 
 bounds, sequence length (frames − 1), connectivity radius, dim, the frame interval as ``dt`` and
 the training set's velocity / acceleration statistics in per-frame units.
 """
+
 from __future__ import annotations
 
 import json

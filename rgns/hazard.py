@@ -5,11 +5,12 @@ caller), so arrays are NaN-free but may hold zeros (nothing failed). Every proba
 a distribution-free confidence band: Clopper–Pearson for probabilities, order statistics for
 quantiles, so small samples show their uncertainty instead of hiding it.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 import pandas as pd
@@ -25,7 +26,9 @@ def _sample(values: np.ndarray) -> np.ndarray:
     if array.size == 0:
         raise ValueError("no realizations: the sample is empty")
     if not np.isfinite(array).all():
-        raise ValueError(f"the sample holds {int((~np.isfinite(array)).sum())} non-finite values; drop diverged runs first")
+        raise ValueError(
+            f"the sample holds {int((~np.isfinite(array)).sum())} non-finite values; drop diverged runs first"
+        )
     return array
 
 
@@ -54,10 +57,17 @@ class ConvergenceTrace:
 
     def to_frame(self) -> pd.DataFrame:
         """One row per sample size, for CSV."""
-        return pd.DataFrame({
-            "n": self.n, "mean": self.mean, "mean_low": self.mean_low, "mean_high": self.mean_high,
-            "std": self.std, "std_low": self.std_low, "std_high": self.std_high,
-        })
+        return pd.DataFrame(
+            {
+                "n": self.n,
+                "mean": self.mean,
+                "mean_low": self.mean_low,
+                "mean_high": self.mean_high,
+                "std": self.std,
+                "std_low": self.std_low,
+                "std_high": self.std_high,
+            }
+        )
 
 
 def running_moments(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -114,8 +124,9 @@ def first_sustained(passed: np.ndarray, window: int) -> int | None:
     return int(full[0]) if full.size else None
 
 
-def convergence(values: np.ndarray, tolerance: float = 1e-3, window: int = 100,
-                confidence: float = 0.95) -> ConvergenceTrace:
+def convergence(
+    values: np.ndarray, tolerance: float = 1e-3, window: int = 100, confidence: float = 0.95
+) -> ConvergenceTrace:
     """Running statistics of a Monte Carlo sample and the size from which they stopped moving.
 
     The paper's 1e-3 rule on absolute changes depends on units, so the changes are normalised by
@@ -139,11 +150,18 @@ def convergence(values: np.ndarray, tolerance: float = 1e-3, window: int = 100,
         std_high = np.sqrt(dof * variance / stats.chi2.ppf(alpha / 2.0, dof))
     start = first_sustained(convergence_checks(mean, variance, tolerance), window)
     return ConvergenceTrace(
-        n=n, mean=mean, mean_low=mean - half_width, mean_high=mean + half_width,
-        std=std, std_low=std_low, std_high=std_high,
+        n=n,
+        mean=mean,
+        mean_low=mean - half_width,
+        mean_high=mean + half_width,
+        std=std,
+        std_low=std_low,
+        std_high=std_high,
         converged_at=None if start is None else int(n[start]),
-        tolerance=float(tolerance), window=int(window),
-        criterion=convergence_criterion(tolerance, window), confidence=confidence,
+        tolerance=float(tolerance),
+        window=int(window),
+        criterion=convergence_criterion(tolerance, window),
+        confidence=confidence,
     )
 
 
@@ -173,8 +191,7 @@ class ExceedanceCurve:
 
     def to_frame(self) -> pd.DataFrame:
         """One row per evaluation point, for CSV."""
-        return pd.DataFrame({"x": self.x, "probability": self.probability,
-                             "lower": self.lower, "upper": self.upper})
+        return pd.DataFrame({"x": self.x, "probability": self.probability, "lower": self.lower, "upper": self.upper})
 
 
 def exceedance_curve(values: np.ndarray, confidence: float = 0.95, x: np.ndarray | None = None) -> ExceedanceCurve:
@@ -183,8 +200,14 @@ def exceedance_curve(values: np.ndarray, confidence: float = 0.95, x: np.ndarray
     where = np.unique(np.concatenate([[0.0], sample])) if x is None else np.asarray(x, dtype=float).ravel()
     count = sample.size - np.searchsorted(sample, where, side="right")
     lower, upper = clopper_pearson(count, sample.size, confidence)
-    return ExceedanceCurve(x=where, probability=count / sample.size, lower=lower, upper=upper,
-                           n=int(sample.size), confidence=float(confidence))
+    return ExceedanceCurve(
+        x=where,
+        probability=count / sample.size,
+        lower=lower,
+        upper=upper,
+        n=int(sample.size),
+        confidence=float(confidence),
+    )
 
 
 @dataclass
@@ -204,7 +227,9 @@ def realizations_needed(probability: float) -> int:
     return math.ceil(1.0 / probability - 1e-9)
 
 
-def quantile_interval(sample_sorted: np.ndarray, quantile: float, confidence: float) -> tuple[float | None, float | None]:
+def quantile_interval(
+    sample_sorted: np.ndarray, quantile: float, confidence: float
+) -> tuple[float | None, float | None]:
     """Distribution-free CI (lower, upper) of a quantile from order statistics.
 
     The number of values at or below the q-quantile is Binomial(n, q); with l = binom.ppf(α/2) and
@@ -220,8 +245,9 @@ def quantile_interval(sample_sorted: np.ndarray, quantile: float, confidence: fl
     return lower, upper
 
 
-def exceedance_distances(values: np.ndarray, probabilities: Sequence[float] = (0.5, 0.1, 0.01),
-                         confidence: float = 0.95) -> list[ExceedanceDistance]:
+def exceedance_distances(
+    values: np.ndarray, probabilities: Sequence[float] = (0.5, 0.1, 0.01), confidence: float = 0.95
+) -> list[ExceedanceDistance]:
     """Distances exceeded with each probability p: the (1 − p) empirical quantile (numpy "linear").
 
     A probability with n·p < 1 is left unresolved: fewer than one realization is expected beyond
@@ -236,16 +262,18 @@ def exceedance_distances(values: np.ndarray, probabilities: Sequence[float] = (0
             raise ValueError(f"exceedance probabilities must lie in (0, 1), got {p}")
         needed = realizations_needed(p)
         if n < needed:
-            results.append(ExceedanceDistance(float(p), None, None, None, False,
-                                              f"needs at least {needed} realizations (n = {n})"))
+            results.append(
+                ExceedanceDistance(float(p), None, None, None, False, f"needs at least {needed} realizations (n = {n})")
+            )
             continue
         lower, upper = quantile_interval(sample, 1.0 - p, confidence)
         missing = [name for name, bound in (("lower", lower), ("upper", upper)) if bound is None]
         note = f"empirical {1.0 - p:g} quantile (linear interpolation) of n = {n}"
         if missing:
             note += f"; {' and '.join(missing)} {confidence:.0%} bound needs more realizations"
-        results.append(ExceedanceDistance(float(p), float(np.quantile(sample, 1.0 - p, method="linear")),
-                                          lower, upper, True, note))
+        results.append(
+            ExceedanceDistance(float(p), float(np.quantile(sample, 1.0 - p, method="linear")), lower, upper, True, note)
+        )
     return results
 
 
@@ -262,15 +290,17 @@ class AffectedProbability:
 
     def to_frame(self, levels: np.ndarray | None = None) -> pd.DataFrame:
         """One row per point, for CSV; with ``levels`` (from :func:`zone_levels`) a ``level`` column."""
-        frame = pd.DataFrame({"x_m": self.x_m, "probability": self.probability,
-                              "lower": self.lower, "upper": self.upper})
+        frame = pd.DataFrame(
+            {"x_m": self.x_m, "probability": self.probability, "lower": self.lower, "upper": self.upper}
+        )
         if levels is not None:
             frame["level"] = [ZONE_LEVELS[int(level)] for level in levels]
         return frame
 
 
-def affected_probability(x_m: np.ndarray, rear_x_m: np.ndarray, front_x_m: np.ndarray,
-                         confidence: float = 0.95) -> AffectedProbability:
+def affected_probability(
+    x_m: np.ndarray, rear_x_m: np.ndarray, front_x_m: np.ndarray, confidence: float = 0.95
+) -> AffectedProbability:
     """Fraction of realizations with rear_x ≤ x ≤ front_x at each x, with Clopper–Pearson bounds.
 
     A realization with nothing displaced has rear = front = NaN: it counts in n but affects no x.
@@ -289,15 +319,20 @@ def affected_probability(x_m: np.ndarray, rear_x_m: np.ndarray, front_x_m: np.nd
     # rear <= front, so every interval already ended before x also started before x.
     count = np.searchsorted(rear_sorted, points, side="right") - np.searchsorted(front_sorted, points, side="left")
     lower, upper = clopper_pearson(count, rear.size, confidence)
-    return AffectedProbability(x_m=points, probability=count / rear.size, lower=lower, upper=upper,
-                               n=int(rear.size), confidence=float(confidence))
+    return AffectedProbability(
+        x_m=points,
+        probability=count / rear.size,
+        lower=lower,
+        upper=upper,
+        n=int(rear.size),
+        confidence=float(confidence),
+    )
 
 
 def check_thresholds(thresholds: Sequence[float]) -> np.ndarray:
     """The four zoning thresholds as an array; ValueError unless strictly decreasing in (0, 1)."""
     array = np.asarray(thresholds, dtype=float).ravel()
-    if (array.size != len(ZONE_LEVELS) - 1 or np.any((array <= 0.0) | (array >= 1.0))
-            or np.any(np.diff(array) >= 0.0)):
+    if array.size != len(ZONE_LEVELS) - 1 or np.any((array <= 0.0) | (array >= 1.0)) or np.any(np.diff(array) >= 0.0):
         raise ValueError(
             f"zoning thresholds {list(thresholds)} must be {len(ZONE_LEVELS) - 1} probabilities "
             f"strictly decreasing in (0, 1), e.g. {list(DEFAULT_THRESHOLDS)}"
@@ -345,5 +380,6 @@ def zones(x_m: np.ndarray, levels: np.ndarray) -> list[Zone]:
     changes = np.flatnonzero(level[1:] != level[:-1]) + 1
     starts = np.concatenate([[0], changes])
     edges = np.concatenate([[x[0]], 0.5 * (x[changes - 1] + x[changes]), [x[-1]]])
-    return [Zone(ZONE_LEVELS[int(level[start])], float(edges[k]), float(edges[k + 1]))
-            for k, start in enumerate(starts)]
+    return [
+        Zone(ZONE_LEVELS[int(level[start])], float(edges[k]), float(edges[k + 1])) for k, start in enumerate(starts)
+    ]

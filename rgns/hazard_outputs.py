@@ -4,6 +4,7 @@ zoning (CSV for the curves, JSON for the numbers a reader quotes, PNG for the fi
 Realizations the screen found stable (status "screened") count as no failure; those whose status
 is neither (a diverged rollout) are left out and counted.
 """
+
 from __future__ import annotations
 
 import json
@@ -14,8 +15,16 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rgns.hazard import (ZONE_LEVELS, affected_probability, convergence, exceedance_curve, exceedance_distances,
-                         zone_levels, zone_range_labels, zones)
+from rgns.hazard import (
+    ZONE_LEVELS,
+    affected_probability,
+    convergence,
+    exceedance_curve,
+    exceedance_distances,
+    zone_levels,
+    zone_range_labels,
+    zones,
+)
 from rgns.hazard_plots import plot_convergence, plot_exceedance, plot_zoning
 from rgns.realizations import FINISHED
 from rgns.tables import write_csv
@@ -33,8 +42,9 @@ def _json(path: str | Path, record: dict[str, Any]) -> None:
     Path(path).write_text(json.dumps(record, indent=2, default=float) + "\n")
 
 
-def write_exceedance(table: pd.DataFrame, mean_field: pd.DataFrame, settings: dict[str, Any],
-                     outputs: dict[str, str]) -> dict[str, Any]:
+def write_exceedance(
+    table: pd.DataFrame, mean_field: pd.DataFrame, settings: dict[str, Any], outputs: dict[str, str]
+) -> dict[str, Any]:
     """Exceedance curves and distances, convergence traces: CSV, JSON and PNG of each."""
     ok = finished(table)
     confidence = settings["confidence"]
@@ -44,26 +54,44 @@ def write_exceedance(table: pd.DataFrame, mean_field: pd.DataFrame, settings: di
         values = ok[column].to_numpy()
         curves[label] = exceedance_curve(values, confidence)
         distances[label] = exceedance_distances(values, settings["exceedance_probabilities"], confidence)
-        traces[label] = convergence(values, settings["convergence_tolerance"], settings["convergence_window"],
-                                    confidence)
+        traces[label] = convergence(
+            values, settings["convergence_tolerance"], settings["convergence_window"], confidence
+        )
         deterministic[label] = float(deterministic_row[column]) if deterministic_row["status"] in FINISHED else None
     write_csv(pd.concat([c.to_frame().assign(metric=label) for label, c in curves.items()]), outputs["curve_csv"])
     write_csv(pd.concat([t.to_frame().assign(metric=label) for label, t in traces.items()]), outputs["convergence_csv"])
     exceedance = {
-        "n": len(ok), "not_ok": len(table) - len(ok), "screened": int((table["status"] == "screened").sum()),
+        "n": len(ok),
+        "not_ok": len(table) - len(ok),
+        "screened": int((table["status"] == "screened").sum()),
         "confidence": confidence,
-        "metrics": {label: {"deterministic_m": deterministic[label],
-                            "mean_m": float(ok[column].mean()), "std_m": float(ok[column].std()),
-                            "distances": [asdict(d) for d in distances[label]]}
-                    for label, column in HAZARD_METRICS.items()},
+        "metrics": {
+            label: {
+                "deterministic_m": deterministic[label],
+                "mean_m": float(ok[column].mean()),
+                "std_m": float(ok[column].std()),
+                "distances": [asdict(d) for d in distances[label]],
+            }
+            for label, column in HAZARD_METRICS.items()
+        },
     }
     _json(outputs["curve_json"], exceedance)
     any_trace = next(iter(traces.values()))
-    _json(outputs["convergence_json"], {
-        "criterion": any_trace.criterion,
-        "metrics": {label: {"n": int(t.n[-1]), "converged_at": t.converged_at, "final_mean_m": float(t.mean[-1]),
-                            "final_std_m": float(t.std[-1])} for label, t in traces.items()},
-    })
+    _json(
+        outputs["convergence_json"],
+        {
+            "criterion": any_trace.criterion,
+            "metrics": {
+                label: {
+                    "n": int(t.n[-1]),
+                    "converged_at": t.converged_at,
+                    "final_mean_m": float(t.mean[-1]),
+                    "final_std_m": float(t.std[-1]),
+                }
+                for label, t in traces.items()
+            },
+        },
+    )
     plot_exceedance(curves, distances, deterministic, outputs["curve"])
     plot_convergence(traces, outputs["convergence"])
     return exceedance
@@ -79,11 +107,20 @@ def write_zoning(table: pd.DataFrame, settings: dict[str, Any], outputs: dict[st
     levels = zone_levels(affected.probability, thresholds)
     write_csv(affected.to_frame(levels), outputs["csv"])
     record = {
-        "n": len(ok), "not_ok": len(table) - len(ok), "thresholds": thresholds,
+        "n": len(ok),
+        "not_ok": len(table) - len(ok),
+        "thresholds": thresholds,
         "levels": dict(zip(ZONE_LEVELS, zone_range_labels(thresholds))),
         "zones": [asdict(zone) for zone in zones(x_m, levels)],
     }
     _json(outputs["json"], record)
-    plot_zoning(np.asarray(settings["vertices"]), affected, levels, thresholds, domain["length_m"],
-                domain["height_m"], outputs["map"])
+    plot_zoning(
+        np.asarray(settings["vertices"]),
+        affected,
+        levels,
+        thresholds,
+        domain["length_m"],
+        domain["height_m"],
+        outputs["map"],
+    )
     return record

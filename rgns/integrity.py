@@ -13,15 +13,16 @@ rests on, so what was removed is rebuilt, and whatever was made from it runs aga
 A file that passed is remembered by size and modification time (``results/.integrity.json``), so
 a run with nothing changed reads nothing twice.
 """
+
 from __future__ import annotations
 
 import json
 import shutil
 import sys
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -30,6 +31,7 @@ RECORD = "results/.integrity.json"
 
 def _read_csv(path: Path) -> None:
     from rgns.tables import read_csv
+
     read_csv(path)
 
 
@@ -45,17 +47,20 @@ def _read_json(path: Path) -> None:
 
 def _read_trajectory(path: Path) -> None:
     from rgns.trajectories import read_trajectory
+
     read_trajectory(path)
 
 
 def _read_packed(path: Path) -> None:
     from rgns.trajectories import read_packed
+
     for _ in read_packed(path):
         pass
 
 
 def _read_end_states(path: Path) -> None:
     from rgns.endstate.data import read_end_states
+
     read_end_states([path])
 
 
@@ -69,11 +74,13 @@ def _read_zip(path: Path) -> None:
 
 def _read_scene(path: Path) -> None:
     from rgns.geometry import read_scene
+
     read_scene(path)
 
 
 def _read_field(path: Path) -> None:
     from rgns.fields import read_field
+
     read_field(str(path))
 
 
@@ -111,15 +118,22 @@ def _remove(path: Path) -> None:
 
 def _indexed(expected: list[int]) -> Callable[[Path], None]:
     """A chunk table's check: whole, and holding exactly the realizations ``expected``."""
+
     def check(path: Path) -> None:
         from rgns.tables import read_chunk
+
         read_chunk(path, expected)
+
     return check
 
 
-def sweep(root: str | Path = ".", folders: dict[str, list[str]] | None = None,
-          chunks: dict[str, list[int]] | None = None, kinds: tuple[Kind, ...] = KINDS,
-          say: Callable[[str], None] | None = None) -> list[str]:
+def sweep(
+    root: str | Path = ".",
+    folders: dict[str, list[str]] | None = None,
+    chunks: dict[str, list[int]] | None = None,
+    kinds: tuple[Kind, ...] = KINDS,
+    say: Callable[[str], None] | None = None,
+) -> list[str]:
     """Remove every damaged intermediate under ``root``, every folder output in ``folders`` (path to
     the member names it must hold) that lacks one and every chunk table in ``chunks`` (path to the
     realization indices it must hold) that holds others; the removed paths, each announced."""
@@ -154,14 +168,19 @@ def sweep(root: str | Path = ".", folders: dict[str, list[str]] | None = None,
                 target = path.parent if kind.folder else path
                 what = f"{target.relative_to(root).as_posix()} (its member {path.name})" if kind.folder else name
                 reason = str(error).split("; delete it and run again")[0].removeprefix(f"{path}: ")  # advice taken here
-                say(f"rgns: {what} is damaged ({type(error).__name__}: {reason}); removed, so that this run "
-                    "makes it again")
+                say(
+                    f"rgns: {what} is damaged ({type(error).__name__}: {reason}); removed, so that this run "
+                    "makes it again"
+                )
                 _remove(target)
                 removed.append(target.relative_to(root).as_posix())
                 continue
             passed[name] = stamp
-    passed = {key: value for key, value in passed.items()
-              if not any(key == gone or key.startswith(gone + "/") for gone in removed)}
+    passed = {
+        key: value
+        for key, value in passed.items()
+        if not any(key == gone or key.startswith(gone + "/") for gone in removed)
+    }
     if (root / "results").is_dir():
         record_path.write_text(json.dumps(passed, indent=0, sort_keys=True) + "\n")
     return removed
@@ -176,6 +195,8 @@ def locked(root: str | Path = ".") -> bool:
 
 def dry_run(argv: list[str]) -> bool:
     """Whether a snakemake command line asks for a dry run (-n, --dry-run, --dryrun, or -n among short flags)."""
-    return any(arg in ("--dry-run", "--dryrun") or
-               (arg.startswith("-") and not arg.startswith("--") and arg[1:].isalpha() and "n" in arg[1:])
-               for arg in argv)
+    return any(
+        arg in ("--dry-run", "--dryrun")
+        or (arg.startswith("-") and not arg.startswith("--") and arg[1:].isalpha() and "n" in arg[1:])
+        for arg in argv
+    )

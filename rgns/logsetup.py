@@ -1,4 +1,5 @@
 """Send a rule script's logging and warnings to the rule's log file."""
+
 from __future__ import annotations
 
 import logging

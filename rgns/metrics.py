@@ -15,6 +15,7 @@ Energies (paper Fig. 12): Ep = Σ m g h (h above the floor y = 0), Ek = ½ Σ m 
 per-frame finite difference, Ed = E0 − (Ep + Ek), all divided by the initial E0. Computed from
 positions alone, so MPM and GNS trajectories are measured the same way.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -30,8 +31,12 @@ def displaced(initial: np.ndarray, final: np.ndarray, threshold_m: float = DISPL
     return np.linalg.norm(np.asarray(final, dtype=float) - initial, axis=1) >= threshold_m
 
 
-def runout_distance(initial: np.ndarray, final: np.ndarray, threshold_m: float = DISPLACEMENT_THRESHOLD_M,
-                    percentile: float = RUNOUT_PERCENTILE) -> float:
+def runout_distance(
+    initial: np.ndarray,
+    final: np.ndarray,
+    threshold_m: float = DISPLACEMENT_THRESHOLD_M,
+    percentile: float = RUNOUT_PERCENTILE,
+) -> float:
     """Horizontal travel of the flow front beyond the initial toe (m)."""
     moved = displaced(initial, final, threshold_m)
     if not moved.any():
@@ -45,14 +50,16 @@ def toe_x(initial: np.ndarray, percentile: float = RUNOUT_PERCENTILE) -> float:
     return float(np.percentile(np.asarray(initial)[:, 0], percentile))
 
 
-def sliding_volume(initial: np.ndarray, final: np.ndarray, volume: np.ndarray,
-                   threshold_m: float = DISPLACEMENT_THRESHOLD_M) -> float:
+def sliding_volume(
+    initial: np.ndarray, final: np.ndarray, volume: np.ndarray, threshold_m: float = DISPLACEMENT_THRESHOLD_M
+) -> float:
     """Volume (area in 2-D) of the displaced particles."""
     return float(np.asarray(volume)[displaced(initial, final, threshold_m)].sum())
 
 
-def influence_distance(initial: np.ndarray, final: np.ndarray, crest_x_m: float,
-                       threshold_m: float = DISPLACEMENT_THRESHOLD_M) -> float:
+def influence_distance(
+    initial: np.ndarray, final: np.ndarray, crest_x_m: float, threshold_m: float = DISPLACEMENT_THRESHOLD_M
+) -> float:
     """Horizontal distance from the crest back to the rear-most displaced particle (initial x)."""
     moved = displaced(initial, final, threshold_m)
     if not moved.any():
@@ -83,13 +90,13 @@ def crest_x(vertices: np.ndarray, ground_deg: float = CREST_GROUND_DEG, base_m: 
     limit = np.tan(np.radians(ground_deg))
     for _ in range(n - 1):
         if vertices[(k + step) % n, 0] <= vertices[k, 0]:
-            break                                   # the boundary turns back: k is the rightmost point
-        j = (k + step) % n                          # the first vertex ahead at least base_m away (or the last rightward)
+            break  # the boundary turns back: k is the rightmost point
+        j = (k + step) % n  # the first vertex ahead at least base_m away (or the last rightward)
         while vertices[j, 0] - vertices[k, 0] < base_m and vertices[(j + step) % n, 0] > vertices[j, 0]:
             j = (j + step) % n
         next_dx, next_dy = vertices[(k + step) % n] - vertices[k]
         dx, dy = vertices[j] - vertices[k]
-        if next_dy < -limit * next_dx and dy < -limit * dx:   # the next edge and the ground over base_m drop steeply
+        if next_dy < -limit * next_dx and dy < -limit * dx:  # the next edge and the ground over base_m drop steeply
             break
         k = (k + step) % n
     return float(vertices[k, 0])
@@ -125,13 +132,21 @@ class RunoutMetrics:
         return self.crest_x_m - self.influence_m if self.displaced_fraction > 0 else float("nan")
 
     def as_row(self) -> dict[str, float]:
-        return {"runout_m": self.runout_m, "volume_m2": self.volume_m2, "influence_m": self.influence_m,
-                "displaced_fraction": self.displaced_fraction, "toe_x_m": self.toe_x_m,
-                "crest_x_m": self.crest_x_m, "front_x_m": self.front_x_m, "rear_x_m": self.rear_x_m}
+        return {
+            "runout_m": self.runout_m,
+            "volume_m2": self.volume_m2,
+            "influence_m": self.influence_m,
+            "displaced_fraction": self.displaced_fraction,
+            "toe_x_m": self.toe_x_m,
+            "crest_x_m": self.crest_x_m,
+            "front_x_m": self.front_x_m,
+            "rear_x_m": self.rear_x_m,
+        }
 
 
-def runout_metrics(initial: np.ndarray, final: np.ndarray, volume: np.ndarray, crest_x_m: float,
-                   settings: MetricSettings | None = None) -> RunoutMetrics:
+def runout_metrics(
+    initial: np.ndarray, final: np.ndarray, volume: np.ndarray, crest_x_m: float, settings: MetricSettings | None = None
+) -> RunoutMetrics:
     """R, V and I of one realization from its initial and final positions [N, 2]."""
     settings = settings or MetricSettings()
     threshold = settings.displacement_threshold_m
@@ -145,15 +160,16 @@ def runout_metrics(initial: np.ndarray, final: np.ndarray, volume: np.ndarray, c
     )
 
 
-def normalized_energies(positions: np.ndarray, mass_kg: np.ndarray, frame_interval_s: float,
-                        gravity_m_s2: float = 9.81) -> np.ndarray:
+def normalized_energies(
+    positions: np.ndarray, mass_kg: np.ndarray, frame_interval_s: float, gravity_m_s2: float = 9.81
+) -> np.ndarray:
     """[T, 3] potential, kinetic and dissipated energy per frame, each divided by E0."""
     positions = np.asarray(positions, dtype=float)
     mass = np.asarray(mass_kg, dtype=float)
     potential = gravity_m_s2 * positions[:, :, 1] @ mass
     velocity = np.zeros_like(positions)
     velocity[1:] = (positions[1:] - positions[:-1]) / frame_interval_s
-    kinetic = 0.5 * (velocity ** 2).sum(axis=2) @ mass
+    kinetic = 0.5 * (velocity**2).sum(axis=2) @ mass
     initial = potential[0]
     if initial <= 0:
         raise ValueError("initial potential energy must be positive (is the material above the floor y = 0?)")

@@ -18,6 +18,7 @@ only the frames a measurement reads are kept (``keep_frames: ends``).
 The end-state surrogate (:mod:`rgns.endstate`) needs no MPM at all: one network evaluation maps a
 realization at rest to its material points at rest after the run (frames: start, end, end).
 """
+
 from __future__ import annotations
 
 import logging
@@ -68,21 +69,32 @@ def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, kee
     return [Simulated(result.positions, result.status) for result in _run_mpm(batch, mpm, frames, keep)]
 
 
-def simulate_gns(simulator: LearnedSimulator, batch: list[Realization], mpm: dict[str, Any], frames: int,
-                 device: str = "cpu", rollout: RolloutSettings | None = None) -> list[Simulated]:
+def simulate_gns(
+    simulator: LearnedSimulator,
+    batch: list[Realization],
+    mpm: dict[str, Any],
+    frames: int,
+    device: str = "cpu",
+    rollout: RolloutSettings | None = None,
+) -> list[Simulated]:
     """MPM for the warm-up (``rollout.warmup_frames``, at least ``history + 1``), then the GNS to ``frames``."""
     warmup = _run_mpm(batch, mpm, (rollout or RolloutSettings()).handover(simulator.settings.history))
-    results = rollout_soil(simulator, [w.positions for w in warmup], [r.friction_deg for r in batch], frames,
-                           rollout, device)
-    return [Simulated(result.positions, w.status if w.status != "ok" else result.status)
-            for w, result in zip(warmup, results)]
+    results = rollout_soil(
+        simulator, [w.positions for w in warmup], [r.friction_deg for r in batch], frames, rollout, device
+    )
+    return [
+        Simulated(result.positions, w.status if w.status != "ok" else result.status)
+        for w, result in zip(warmup, results)
+    ]
 
 
 def simulate_endstate(model: EndStateModel, batch: list[Realization], device: str = "cpu") -> list[Simulated]:
     """The end-state surrogate's final positions of a batch (frames: start, end, end: at rest)."""
     finals = model.predict([r.scene.positions for r in batch], [r.friction_deg for r in batch], device)
-    return [Simulated(np.stack([r.scene.positions.astype(np.float32), final, final]), "ok")
-            for r, final in zip(batch, finals)]
+    return [
+        Simulated(np.stack([r.scene.positions.astype(np.float32), final, final]), "ok")
+        for r, final in zip(batch, finals)
+    ]
 
 
 def screened(realization: Realization) -> Simulated:
@@ -94,20 +106,36 @@ def screened(realization: Realization) -> Simulated:
 def factor_of_safety(realization: Realization, mpm: dict[str, Any], settings: ScreenSettings) -> float:
     """Minimum Bishop factor of safety of a realization with the MPM's soil."""
     scene = realization.scene
-    return minimum_factor_of_safety(scene.vertices, scene.positions, realization.friction_deg, scene.cell_size_m,
-                                    mpm["density_kg_m3"] * mpm["gravity_m_s2"], mpm["cohesion_pa"], settings,
-                                    domain_length_m=scene.domain_length_m).factor_of_safety
+    return minimum_factor_of_safety(
+        scene.vertices,
+        scene.positions,
+        realization.friction_deg,
+        scene.cell_size_m,
+        mpm["density_kg_m3"] * mpm["gravity_m_s2"],
+        mpm["cohesion_pa"],
+        settings,
+        domain_length_m=scene.domain_length_m,
+    ).factor_of_safety
 
 
-def measure(realization: Realization, simulated: Simulated, metrics: MetricSettings, density_kg_m3: float,
-            frame_interval_s: float, gravity_m_s2: float) -> dict[str, Any]:
+def measure(
+    realization: Realization,
+    simulated: Simulated,
+    metrics: MetricSettings,
+    density_kg_m3: float,
+    frame_interval_s: float,
+    gravity_m_s2: float,
+) -> dict[str, Any]:
     """One table row: R, V, I, the final normalised energies and the status of a realization.
 
     ``simulated.positions`` may hold every frame or only the first and the last two."""
     scene = realization.scene
-    row: dict[str, Any] = {"index": realization.index, "status": simulated.status,
-                           "n_particles": len(scene.positions),
-                           "friction_mean_deg": float(np.mean(realization.friction_deg))}
+    row: dict[str, Any] = {
+        "index": realization.index,
+        "status": simulated.status,
+        "n_particles": len(scene.positions),
+        "friction_mean_deg": float(np.mean(realization.friction_deg)),
+    }
     if simulated.status not in FINISHED:
         return row
     positions = simulated.positions
@@ -118,9 +146,25 @@ def measure(realization: Realization, simulated: Simulated, metrics: MetricSetti
     return row
 
 
-COLUMNS = ["index", "status", "n_particles", "friction_mean_deg", "factor_of_safety", "runout_m", "volume_m2",
-           "influence_m", "displaced_fraction", "toe_x_m", "crest_x_m", "front_x_m", "rear_x_m", "potential_final",
-           "kinetic_final", "dissipated_final", "simulator"]
+COLUMNS = [
+    "index",
+    "status",
+    "n_particles",
+    "friction_mean_deg",
+    "factor_of_safety",
+    "runout_m",
+    "volume_m2",
+    "influence_m",
+    "displaced_fraction",
+    "toe_x_m",
+    "crest_x_m",
+    "front_x_m",
+    "rear_x_m",
+    "potential_final",
+    "kinetic_final",
+    "dissipated_final",
+    "simulator",
+]
 
 
 def collect_chunks(paths: list[str], realizations: int, chunk_size: int) -> pd.DataFrame:
@@ -159,27 +203,44 @@ class RunSettings:
     screen: ScreenSettings | None = None
 
     @classmethod
-    def from_params(cls, params: dict[str, Any]) -> "RunSettings":
+    def from_params(cls, params: dict[str, Any]) -> RunSettings:
         section, mpm = params["montecarlo"], params["mpm"]
         duration_s = section["duration_s"] or mpm["duration_s"]
-        return cls(simulator=section["simulator"], batch_size=section["batch_size"],
-                   frames=frame_count(duration_s, mpm["frame_interval_s"]),
-                   frame_interval_s=mpm["frame_interval_s"], metrics=MetricSettings(**params["metrics"]),
-                   mpm=mpm, device=section["device"], keep_frames=section["keep_frames"],
-                   rollout=rollout_settings(section["rollout"], mpm["frame_interval_s"], section["keep_frames"]),
-                   screen=ScreenSettings(**section["screen"]))
+        return cls(
+            simulator=section["simulator"],
+            batch_size=section["batch_size"],
+            frames=frame_count(duration_s, mpm["frame_interval_s"]),
+            frame_interval_s=mpm["frame_interval_s"],
+            metrics=MetricSettings(**params["metrics"]),
+            mpm=mpm,
+            device=section["device"],
+            keep_frames=section["keep_frames"],
+            rollout=rollout_settings(section["rollout"], mpm["frame_interval_s"], section["keep_frames"]),
+            screen=ScreenSettings(**section["screen"]),
+        )
 
 
 def rollout_settings(section: dict[str, Any], frame_interval_s: float, keep: str = "all") -> RolloutSettings:
     """The GNS rollout options of config section ``montecarlo.rollout`` (its MPM warm-up in frames)."""
-    return RolloutSettings(warmup_frames=warmup_frame_count(section["warmup_s"], frame_interval_s), skip_rest=section["skip_rest"], rest_velocity=section["rest_velocity_m_per_frame"],
-                           rest_displacement=section["rest_displacement_m"], context_hops=section["context_hops"],
-                           early_stop=section["early_stop"], early_stop_fraction=section["early_stop_fraction"],
-                           early_stop_frames=section["early_stop_frames"], keep=keep)
+    return RolloutSettings(
+        warmup_frames=warmup_frame_count(section["warmup_s"], frame_interval_s),
+        skip_rest=section["skip_rest"],
+        rest_velocity=section["rest_velocity_m_per_frame"],
+        rest_displacement=section["rest_displacement_m"],
+        context_hops=section["context_hops"],
+        early_stop=section["early_stop"],
+        early_stop_fraction=section["early_stop_fraction"],
+        early_stop_frames=section["early_stop_frames"],
+        keep=keep,
+    )
 
 
-def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettings,
-                     simulator: LearnedSimulator | EndStateModel | None = None) -> pd.DataFrame:
+def run_realizations(
+    inputs: CaseInputs,
+    indices: list[int],
+    settings: RunSettings,
+    simulator: LearnedSimulator | EndStateModel | None = None,
+) -> pd.DataFrame:
     """Draw, simulate and measure realizations ``indices`` (MEAN_FIELD for the mean-field one)."""
     if settings.simulator not in SIMULATORS:
         raise MonteCarloError(f"montecarlo.simulator = {settings.simulator!r}: expected one of {SIMULATORS}")
@@ -190,29 +251,45 @@ def run_realizations(inputs: CaseInputs, indices: list[int], settings: RunSettin
     batches = _aligned_batches(indices, settings.batch_size)
     screen = settings.screen or ScreenSettings()
     for number, batch_indices in enumerate(batches, start=1):
-        batch = [mean_field_realization(inputs) if i == MEAN_FIELD else draw_realization(inputs, i)
-                 for i in batch_indices]
-        safety = {r.index: factor_of_safety(r, settings.mpm, screen) if screen.enabled else float("nan")
-                  for r in batch}
+        batch = [
+            mean_field_realization(inputs) if i == MEAN_FIELD else draw_realization(inputs, i) for i in batch_indices
+        ]
+        safety = {r.index: factor_of_safety(r, settings.mpm, screen) if screen.enabled else float("nan") for r in batch}
         skipped = {r.index for r in batch if screen.skips(safety[r.index])}
         to_run = [r for r in batch if r.index not in skipped]
         simulated = {r.index: screened(r) for r in batch if r.index in skipped}
         simulated |= dict(zip([r.index for r in to_run], _simulate(to_run, settings, simulator)))
         for realization in batch:
             result = simulated[realization.index]
-            rows.append(measure(realization, result, settings.metrics, settings.mpm["density_kg_m3"],
-                                settings.frame_interval_s, settings.mpm["gravity_m_s2"])
-                        | {"factor_of_safety": safety[realization.index], "simulator": settings.simulator})
+            rows.append(
+                measure(
+                    realization,
+                    result,
+                    settings.metrics,
+                    settings.mpm["density_kg_m3"],
+                    settings.frame_interval_s,
+                    settings.mpm["gravity_m_s2"],
+                )
+                | {"factor_of_safety": safety[realization.index], "simulator": settings.simulator}
+            )
             if result.status not in FINISHED:
                 log.error("%s realization %d: %s", inputs.case, realization.index, result.status)
         elapsed = time.perf_counter() - started
-        log.info("%s: batch %d of %d done (%d realizations, %.1f s, about %.0f s left)", inputs.case, number,
-                 len(batches), len(rows), elapsed, elapsed / number * (len(batches) - number))
+        log.info(
+            "%s: batch %d of %d done (%d realizations, %.1f s, about %.0f s left)",
+            inputs.case,
+            number,
+            len(batches),
+            len(rows),
+            elapsed,
+            elapsed / number * (len(batches) - number),
+        )
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
-def _simulate(batch: list[Realization], settings: RunSettings,
-              simulator: LearnedSimulator | EndStateModel | None) -> list[Simulated]:
+def _simulate(
+    batch: list[Realization], settings: RunSettings, simulator: LearnedSimulator | EndStateModel | None
+) -> list[Simulated]:
     if not batch:
         return []
     if settings.simulator == "endstate":

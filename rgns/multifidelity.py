@@ -17,6 +17,7 @@ predicted probability P(h > r | l) as the control variate instead of its own ind
 which correlates poorly with 1[h > r] wherever the two routes put a realization on different
 sides of r.
 """
+
 from __future__ import annotations
 
 import math
@@ -84,18 +85,22 @@ def point_estimate(high_p: np.ndarray, low_p: np.ndarray, low_u: np.ndarray | No
     return high_p.mean(axis=axis) + _weight(high_p, low_p, axis) * (total / count - low_p.mean(axis=axis))
 
 
-def control_variate(high: np.ndarray, low: np.ndarray, confidence: float = 0.95, resamples: int = RESAMPLES,
-                    seed: int = 0) -> ControlVariateEstimate:
+def control_variate(
+    high: np.ndarray, low: np.ndarray, confidence: float = 0.95, resamples: int = RESAMPLES, seed: int = 0
+) -> ControlVariateEstimate:
     """Estimate the high-fidelity mean of each quantity from ``high`` [n, ...] and ``low`` [N, ...].
 
     ``low[:n]`` are the same realizations as ``high``; n ≥ 2 pairs are needed for the weight."""
     high, low = np.asarray(high, dtype=float), np.asarray(low, dtype=float)
     n, big_n = high.shape[0], low.shape[0]
     if high.shape[1:] != low.shape[1:]:
-        raise MultiFidelityError(f"high- and low-fidelity quantities differ in shape: {high.shape[1:]} vs {low.shape[1:]}")
+        raise MultiFidelityError(
+            f"high- and low-fidelity quantities differ in shape: {high.shape[1:]} vs {low.shape[1:]}"
+        )
     if n < 2 or big_n < n:
-        raise MultiFidelityError(f"need at least 2 paired realizations and no more than the {big_n} low-fidelity "
-                                 f"ones, got {n}")
+        raise MultiFidelityError(
+            f"need at least 2 paired realizations and no more than the {big_n} low-fidelity ones, got {n}"
+        )
     if not (np.isfinite(high).all() and np.isfinite(low).all()):
         raise MultiFidelityError("high- or low-fidelity values hold NaN or infinity (a diverged run?)")
     if not 0.0 < confidence < 1.0:
@@ -111,19 +116,35 @@ def control_variate(high: np.ndarray, low: np.ndarray, confidence: float = 0.95,
 
     samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
     estimate = point_estimate(h2, l2[:n], l2[n:] if big_n > n else None, axis=0)
-    boot = stats.bootstrap(samples, statistic, paired=False, vectorized=True, n_resamples=resamples,
-                           confidence_level=expanded_level(confidence, n), method="percentile", batch=max(1, 4_000_000 // max(1, n * h2.shape[1])),
-                           random_state=np.random.default_rng(seed))
+    boot = stats.bootstrap(
+        samples,
+        statistic,
+        paired=False,
+        vectorized=True,
+        n_resamples=resamples,
+        confidence_level=expanded_level(confidence, n),
+        method="percentile",
+        batch=max(1, 4_000_000 // max(1, n * h2.shape[1])),
+        random_state=np.random.default_rng(seed),
+    )
     lower, upper = boot.confidence_interval
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)  # a degenerate bootstrap: the point
     var_h, var_l, cov = _sums(h2, l2[:n], axis=0)
     denominator = np.sqrt(var_h * var_l)
     correlation = np.divide(cov, denominator, out=np.full(h2.shape[1], np.nan), where=denominator > 0)
     return ControlVariateEstimate(
-        estimate=estimate.reshape(shape), lower=np.asarray(lower).reshape(shape), upper=np.asarray(upper).reshape(shape),
-        high_mean=h2.mean(0).reshape(shape), low_mean=l2.mean(0).reshape(shape),
-        weight=_weight(h2, l2[:n], axis=0).reshape(shape), correlation=correlation.reshape(shape),
-        bias=(l2[:n].mean(0) - h2.mean(0)).reshape(shape), n_paired=n, n_low=big_n, confidence=confidence)
+        estimate=estimate.reshape(shape),
+        lower=np.asarray(lower).reshape(shape),
+        upper=np.asarray(upper).reshape(shape),
+        high_mean=h2.mean(0).reshape(shape),
+        low_mean=l2.mean(0).reshape(shape),
+        weight=_weight(h2, l2[:n], axis=0).reshape(shape),
+        correlation=correlation.reshape(shape),
+        bias=(l2[:n].mean(0) - h2.mean(0)).reshape(shape),
+        n_paired=n,
+        n_low=big_n,
+        confidence=confidence,
+    )
 
 
 def _exceeds(values: np.ndarray, thresholds: np.ndarray, inclusive: bool) -> np.ndarray:
@@ -147,7 +168,7 @@ def predicted_exceedance(high_p: np.ndarray, low_p: np.ndarray, low: np.ndarray,
     var, cov = (dl * dl).sum(-1, keepdims=True), (dh * dl).sum(-1, keepdims=True)
     slope = np.divide(cov, var, out=np.zeros_like(cov), where=var > 1e-12)
     residual = np.where(finite, dh - slope * dl, 0.0)
-    scale = np.sqrt((residual ** 2).sum(-1, keepdims=True) / np.maximum(count - 2, 1))
+    scale = np.sqrt((residual**2).sum(-1, keepdims=True) / np.maximum(count - 2, 1))
     scale = np.maximum(scale, 1e-9 * (1.0 + np.sqrt(var / np.maximum(count, 1))))
     predicted = mean_h + slope * (low - mean_l)  # [..., M]
     smooth = stats.norm.cdf((predicted[..., None] - thresholds) / scale[..., None])
@@ -155,16 +176,21 @@ def predicted_exceedance(high_p: np.ndarray, low_p: np.ndarray, low: np.ndarray,
     return np.where(np.isfinite(low)[..., None], smooth, step)
 
 
-def regression_point_estimate(high_p: np.ndarray, low_p: np.ndarray, low_u: np.ndarray | None,
-                              thresholds: np.ndarray, signs: np.ndarray | None = None,
-                              inclusive: np.ndarray | None = None) -> np.ndarray:
+def regression_point_estimate(
+    high_p: np.ndarray,
+    low_p: np.ndarray,
+    low_u: np.ndarray | None,
+    thresholds: np.ndarray,
+    signs: np.ndarray | None = None,
+    inclusive: np.ndarray | None = None,
+) -> np.ndarray:
     """sum_k sign_k P(v_k > t) (≥ where ``inclusive``) from pairs [..., n, K] and unpaired low values
     [..., M, K], each term mean_n(1[h > t] − g) + mean_N(g) with g the regression control variate
     → [..., T]."""
     columns = high_p.shape[-1]
     signs = np.ones(columns) if signs is None else signs
     inclusive = np.zeros(columns, dtype=bool) if inclusive is None else inclusive
-    total = 0.0
+    total = np.zeros(())
     for k in range(columns):
         hi, lo = high_p[..., k], low_p[..., k]
         every = lo if low_u is None else np.concatenate([lo, low_u[..., k]], axis=-1)
@@ -174,10 +200,16 @@ def regression_point_estimate(high_p: np.ndarray, low_p: np.ndarray, low_u: np.n
     return total
 
 
-def regression_control_variate(high: np.ndarray, low: np.ndarray, thresholds: np.ndarray,
-                               signs: np.ndarray | None = None, inclusive: np.ndarray | None = None,
-                               confidence: float = 0.95, resamples: int = RESAMPLES,
-                               seed: int = 0) -> ControlVariateEstimate:
+def regression_control_variate(
+    high: np.ndarray,
+    low: np.ndarray,
+    thresholds: np.ndarray,
+    signs: np.ndarray | None = None,
+    inclusive: np.ndarray | None = None,
+    confidence: float = 0.95,
+    resamples: int = RESAMPLES,
+    seed: int = 0,
+) -> ControlVariateEstimate:
     """Exceedance probabilities sum_k sign_k P(v_k > t) of the high-fidelity values, for every threshold t.
 
     The difference (model-assisted) estimator mean over N of g + mean over the n pairs of
@@ -201,8 +233,9 @@ def regression_control_variate(high: np.ndarray, low: np.ndarray, thresholds: np
     if low.shape[1] != k:
         raise MultiFidelityError(f"high- and low-fidelity values differ in columns: {k} vs {low.shape[1]}")
     if n < 2 or big_n < n:
-        raise MultiFidelityError(f"need at least 2 paired realizations and no more than the {big_n} low-fidelity "
-                                 f"ones, got {n}")
+        raise MultiFidelityError(
+            f"need at least 2 paired realizations and no more than the {big_n} low-fidelity ones, got {n}"
+        )
     if np.isinf(high).any() or np.isinf(low).any():
         raise MultiFidelityError("high- or low-fidelity values hold infinity (a diverged run?)")
     signs = np.ones(k) if signs is None else np.asarray(signs, dtype=float)
@@ -216,10 +249,17 @@ def regression_control_variate(high: np.ndarray, low: np.ndarray, thresholds: np
 
     samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
     estimate = regression_point_estimate(high, low[:n], low[n:] if big_n > n else None, thresholds, signs, inclusive)
-    boot = stats.bootstrap(samples, statistic, paired=False, vectorized=True, n_resamples=resamples,
-                           confidence_level=expanded_level(confidence, n), method="percentile",
-                           batch=max(1, 2_000_000 // max(1, big_n * thresholds.size * k)),
-                           random_state=np.random.default_rng(seed))
+    boot = stats.bootstrap(
+        samples,
+        statistic,
+        paired=False,
+        vectorized=True,
+        n_resamples=resamples,
+        confidence_level=expanded_level(confidence, n),
+        method="percentile",
+        batch=max(1, 2_000_000 // max(1, big_n * thresholds.size * k)),
+        random_state=np.random.default_rng(seed),
+    )
     lower, upper = boot.confidence_interval
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)
 
@@ -237,9 +277,18 @@ def regression_control_variate(high: np.ndarray, low: np.ndarray, thresholds: np
     correlation = np.divide(cov, denominator, out=np.full(thresholds.size, np.nan), where=denominator > 0)
     high_mean = combined_mean(h_columns)
     return ControlVariateEstimate(
-        estimate=estimate, lower=np.asarray(lower), upper=np.asarray(upper), high_mean=high_mean,
-        low_mean=combined_mean(l_columns), weight=np.ones(thresholds.size), correlation=correlation,
-        bias=combined_mean([c[:n] for c in l_columns]) - high_mean, n_paired=n, n_low=big_n, confidence=confidence)
+        estimate=estimate,
+        lower=np.asarray(lower),
+        upper=np.asarray(upper),
+        high_mean=high_mean,
+        low_mean=combined_mean(l_columns),
+        weight=np.ones(thresholds.size),
+        correlation=correlation,
+        bias=combined_mean([c[:n] for c in l_columns]) - high_mean,
+        n_paired=n,
+        n_low=big_n,
+        confidence=confidence,
+    )
 
 
 def rearranged(probability: np.ndarray) -> np.ndarray:
@@ -255,9 +304,14 @@ def corrected_affected_probability(high: np.ndarray, low: np.ndarray, x_m: np.nd
     the difference: estimated as one, the difference wiggles where the terms overlap, and a wiggle
     across a zoning threshold drew an island (a 0.75 m "extremely low" stretch inside "low")."""
     n = len(high)
-    terms = [rearranged(regression_point_estimate(high[:, [k]], low[:n, [k]], low[n:, [k]] if len(low) > n else None,
-                                                  x_m, inclusive=np.array([inclusive])))
-             for k, inclusive in ((0, True), (1, False))]
+    terms = [
+        rearranged(
+            regression_point_estimate(
+                high[:, [k]], low[:n, [k]], low[n:, [k]] if len(low) > n else None, x_m, inclusive=np.array([inclusive])
+            )
+        )
+        for k, inclusive in ((0, True), (1, False))
+    ]
     return np.clip(terms[0] - terms[1], 0.0, 1.0)
 
 
@@ -290,7 +344,7 @@ def optimal_ratio(cost_high: float, cost_low: float, correlation: float) -> floa
 
 def variance_factor(ratio: float, correlation: float) -> float:
     """Variance of the estimate with n pairs over that of n high-fidelity runs alone: 1 - (1 - 1/r) rho^2."""
-    return 1.0 - (1.0 - 1.0 / ratio) * correlation ** 2
+    return 1.0 - (1.0 - 1.0 / ratio) * correlation**2
 
 
 def _z(confidence: float) -> float:
@@ -298,15 +352,23 @@ def _z(confidence: float) -> float:
     return float(stats.norm.ppf(0.5 + confidence / 2.0))
 
 
-def predicted_half_width(std_high: float, correlation: float, n_high: int, n_low: int,
-                         confidence: float = 0.95) -> float:
+def predicted_half_width(
+    std_high: float, correlation: float, n_high: int, n_low: int, confidence: float = 0.95
+) -> float:
     """Interval half-width of the control-variate estimate of a mean from n_high pairs among n_low cheap
     runs (normal approximation, optimal weight): z std sqrt(variance_factor(N / n, rho) / n)."""
     return _z(confidence) * std_high * math.sqrt(variance_factor(n_low / n_high, correlation) / n_high)
 
 
-def allocate(cost_high: float, cost_low: float, correlation: float, std_high: float, half_width: float,
-             confidence: float = 0.95, cap_high: int | None = None) -> Allocation:
+def allocate(
+    cost_high: float,
+    cost_low: float,
+    correlation: float,
+    std_high: float,
+    half_width: float,
+    confidence: float = 0.95,
+    cap_high: int | None = None,
+) -> Allocation:
     """Realizations at each fidelity for a target interval half-width (normal approximation),
     from the measured costs (s per realization), paired correlation and high-fidelity std.
     ``cap_high`` bounds the paired runs (the half-width is then not reached)."""
@@ -314,18 +376,19 @@ def allocate(cost_high: float, cost_low: float, correlation: float, std_high: fl
         raise MultiFidelityError(f"the target half-width must be positive, got {half_width}")
     target = (half_width / _z(confidence)) ** 2
     ratio = optimal_ratio(cost_high, cost_low, correlation)
-    n_high = max(2, math.ceil(std_high ** 2 * variance_factor(ratio, correlation) / target))
+    n_high = max(2, math.ceil(std_high**2 * variance_factor(ratio, correlation) / target))
     if cap_high is not None:
         n_high = min(n_high, cap_high)
     n_low = max(n_high, math.ceil(ratio * n_high))
-    variance = std_high ** 2 / n_high * variance_factor(n_low / n_high, correlation)
+    variance = std_high**2 / n_high * variance_factor(n_low / n_high, correlation)
     cost = n_high * cost_high + n_low * cost_low
-    plain_cost = std_high ** 2 / variance * cost_high
+    plain_cost = std_high**2 / variance * cost_high
     return Allocation(n_high, n_low, ratio, variance, cost, plain_cost, plain_cost / cost)
 
 
-def pairs_for_half_width(std_high: float, correlation: float, n_low: int, half_width: float,
-                         confidence: float = 0.95) -> float:
+def pairs_for_half_width(
+    std_high: float, correlation: float, n_low: int, half_width: float, confidence: float = 0.95
+) -> float:
     """Paired runs n for which the control-variate estimate of a mean, from n pairs among ``n_low`` cheap
     runs, reaches ``half_width`` (normal approximation; variance std² ((1 − ρ²) / n + ρ² / N) at the
     optimal weight). Infinite where the N cheap runs cannot: ρ² std² / N alone exceeds the target."""
@@ -333,8 +396,8 @@ def pairs_for_half_width(std_high: float, correlation: float, n_low: int, half_w
         raise MultiFidelityError(f"the target half-width must be positive, got {half_width}")
     target = (half_width / _z(confidence)) ** 2
     rho2 = min(float(correlation) ** 2, 1.0)
-    floor = std_high ** 2 * rho2 / n_low
-    return math.inf if floor >= target else std_high ** 2 * (1.0 - rho2) / (target - floor)
+    floor = std_high**2 * rho2 / n_low
+    return math.inf if floor >= target else std_high**2 * (1.0 - rho2) / (target - floor)
 
 
 def speedup(cost_high: float, cost_low: float, correlation: float) -> float:

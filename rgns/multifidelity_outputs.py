@@ -10,6 +10,7 @@ near d). Exceedance curves are rearranged to be non-increasing; P(x affected) is
 its two rearranged terms, so the corrected zones rise to one maximum and fall (no islands). Costs
 come from the Snakemake benchmark files of the chunks.
 """
+
 from __future__ import annotations
 
 import json
@@ -25,11 +26,21 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from rgns.mesh_extrapolation import converged  # noqa: E402
 from rgns.hazard import ZONE_LEVELS, exceedance_distances, zone_levels, zones  # noqa: E402
-from rgns.multifidelity import (ControlVariateEstimate, MultiFidelityError, allocate, control_variate,  # noqa: E402
-                                corrected_affected_probability, optimal_ratio, pairs_for_half_width,
-                                predicted_half_width, rearranged, regression_control_variate, speedup)
+from rgns.mesh_extrapolation import converged  # noqa: E402
+from rgns.multifidelity import (
+    ControlVariateEstimate,
+    MultiFidelityError,
+    allocate,
+    control_variate,  # noqa: E402
+    corrected_affected_probability,
+    optimal_ratio,
+    pairs_for_half_width,
+    predicted_half_width,
+    rearranged,
+    regression_control_variate,
+    speedup,
+)
 from rgns.realizations import FINISHED  # noqa: E402
 
 METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
@@ -51,14 +62,18 @@ def paired_rows(low: pd.DataFrame, high: pd.DataFrame) -> tuple[pd.DataFrame, pd
 
 def costs(low_benchmarks: list[str], n_low: int, high_benchmarks: list[str], n_high: int) -> dict[str, float]:
     """Seconds per realization of each route, from Snakemake benchmark files (column ``s``)."""
+
     def seconds(paths: list[str]) -> float:
         return float(sum(pd.read_csv(path, sep="\t")["s"].sum() for path in paths))
+
     return {"low_s": seconds(low_benchmarks) / n_low, "high_s": seconds(high_benchmarks) / n_high}
 
 
 def _estimate_record(estimate: ControlVariateEstimate) -> dict[str, Any]:
-    return {key: np.asarray(getattr(estimate, key)).tolist() for key in
-            ("estimate", "lower", "upper", "high_mean", "low_mean", "weight", "correlation", "bias")}
+    return {
+        key: np.asarray(getattr(estimate, key)).tolist()
+        for key in ("estimate", "lower", "upper", "high_mean", "low_mean", "weight", "correlation", "bias")
+    }
 
 
 def distance_at(d_m: np.ndarray, probability: np.ndarray, p: float) -> float | None:
@@ -67,50 +82,80 @@ def distance_at(d_m: np.ndarray, probability: np.ndarray, p: float) -> float | N
     return float(d_m[below[0]]) if below.size else None
 
 
-def correct(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float],
-            seed: int = 0) -> dict[str, Any]:
+def correct(
+    low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float], seed: int = 0
+) -> dict[str, Any]:
     """Every corrected quantity of one case, with the uncorrected ones beside it."""
     low, high = paired_rows(low, high)
     n, confidence = len(high), settings["confidence"]
-    record: dict[str, Any] = {"n_low": len(low), "n_paired": n, "high_cell_size_m": settings["high_cell_size_m"],
-                              "cheap_route": settings.get("cheap_route", "the Monte Carlo's simulator"),
-                              "confidence": confidence, "cost": cost, "means": {}, "exceedance": {}}
+    record: dict[str, Any] = {
+        "n_low": len(low),
+        "n_paired": n,
+        "high_cell_size_m": settings["high_cell_size_m"],
+        "cheap_route": settings.get("cheap_route", "the Monte Carlo's simulator"),
+        "confidence": confidence,
+        "cost": cost,
+        "means": {},
+        "exceedance": {},
+    }
     for key in METRICS:
         estimate = control_variate(high[[key]].to_numpy(float), low[[key]].to_numpy(float), confidence, seed=seed)
         record["means"][key] = {name: value[0] for name, value in _estimate_record(estimate).items()}
     for key in CURVES:
         top = max(low[key].max(), high[key].max())
         d_m = np.arange(0.0, top + DISTANCE_STEP_M, DISTANCE_STEP_M)
-        estimate = regression_control_variate(high[key].to_numpy(float), low[key].to_numpy(float), d_m,
-                                              confidence=confidence, seed=seed)
+        estimate = regression_control_variate(
+            high[key].to_numpy(float), low[key].to_numpy(float), d_m, confidence=confidence, seed=seed
+        )
         corrected, uncorrected = rearranged(estimate.estimate), estimate.low_mean  # low_mean: over all N
         record["exceedance"][key] = {
-            "d_m": d_m.tolist(), "uncorrected": uncorrected.tolist(),
-            "corrected": corrected.tolist(), "lower": rearranged(estimate.lower).tolist(),
-            "upper": rearranged(estimate.upper).tolist(), "paired_high": estimate.high_mean.tolist(),
-            "distances": {str(p): {"uncorrected": distance_at(d_m, uncorrected, p),
-                                   "corrected": distance_at(d_m, corrected, p)}
-                          for p in settings["exceedance_probabilities"]}}
+            "d_m": d_m.tolist(),
+            "uncorrected": uncorrected.tolist(),
+            "corrected": corrected.tolist(),
+            "lower": rearranged(estimate.lower).tolist(),
+            "upper": rearranged(estimate.upper).tolist(),
+            "paired_high": estimate.high_mean.tolist(),
+            "distances": {
+                str(p): {"uncorrected": distance_at(d_m, uncorrected, p), "corrected": distance_at(d_m, corrected, p)}
+                for p in settings["exceedance_probabilities"]
+            },
+        }
     x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
-    ends_high, ends_low = high[["front_x_m", "rear_x_m"]].to_numpy(float), low[["front_x_m", "rear_x_m"]].to_numpy(float)
-    estimate = regression_control_variate(ends_high, ends_low, x_m, signs=[1.0, -1.0], inclusive=[True, False],
-                                          confidence=confidence, seed=seed)
+    ends_high, ends_low = (
+        high[["front_x_m", "rear_x_m"]].to_numpy(float),
+        low[["front_x_m", "rear_x_m"]].to_numpy(float),
+    )
+    estimate = regression_control_variate(
+        ends_high, ends_low, x_m, signs=[1.0, -1.0], inclusive=[True, False], confidence=confidence, seed=seed
+    )
     probability, uncorrected = corrected_affected_probability(ends_high, ends_low, x_m), estimate.low_mean
     thresholds = settings["thresholds"]
     record["zoning"] = {
-        "x_m": x_m.tolist(), "uncorrected": uncorrected.tolist(), "corrected": probability.tolist(),
+        "x_m": x_m.tolist(),
+        "uncorrected": uncorrected.tolist(),
+        "corrected": probability.tolist(),
         # the band: the joint estimate's bootstrap interval, widened where needed to hold the rearranged estimate
         "lower": np.minimum(np.clip(estimate.lower, 0, 1), probability).tolist(),
         "upper": np.maximum(np.clip(estimate.upper, 0, 1), probability).tolist(),
         "zones_uncorrected": [asdict(zone) for zone in zones(x_m, zone_levels(uncorrected, thresholds))],
-        "zones_corrected": [asdict(zone) for zone in zones(x_m, zone_levels(probability, thresholds))]}
+        "zones_corrected": [asdict(zone) for zone in zones(x_m, zone_levels(probability, thresholds))],
+    }
     runout = record["means"]["runout_m"]
     rho = float(np.nan_to_num(runout["correlation"]))
-    record["allocation"] = {"correlation_runout": rho, "optimal_ratio": optimal_ratio(cost["high_s"], cost["low_s"], rho),
-                            "speedup_at_equal_error": speedup(cost["high_s"], cost["low_s"], rho)}
+    record["allocation"] = {
+        "correlation_runout": rho,
+        "optimal_ratio": optimal_ratio(cost["high_s"], cost["low_s"], rho),
+        "speedup_at_equal_error": speedup(cost["high_s"], cost["low_s"], rho),
+    }
     if settings.get("target_half_width_m"):
-        plan = allocate(cost["high_s"], cost["low_s"], rho, float(high["runout_m"].std(ddof=1)),
-                        settings["target_half_width_m"], confidence)
+        plan = allocate(
+            cost["high_s"],
+            cost["low_s"],
+            rho,
+            float(high["runout_m"].std(ddof=1)),
+            settings["target_half_width_m"],
+            confidence,
+        )
         record["allocation"]["target"] = {"half_width_m": settings["target_half_width_m"], **asdict(plan)}
     return record
 
@@ -124,19 +169,47 @@ def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
         d = curve["d_m"]
         ax.step(d, curve["uncorrected"], where="post", color="C0", label=f"cheap route (n = {record['n_low']})")
         ax.step(d, curve["corrected"], where="post", color="C3", label="multi-fidelity corrected")
-        ax.fill_between(d, curve["lower"], curve["upper"], step="post", color="C3", alpha=0.2,
-                        label=f"{record['confidence']:.0%} interval")
+        ax.fill_between(
+            d,
+            curve["lower"],
+            curve["upper"],
+            step="post",
+            color="C3",
+            alpha=0.2,
+            label=f"{record['confidence']:.0%} interval",
+        )
         if curve.get("simulator") is not None and simulator_differs:
-            ax.step(d, curve["simulator"], where="post", color="0.5", linestyle="--",
-                    label="Monte Carlo's simulator (its map)")
-        ax.step(d, curve["paired_high"], where="post", color="k", linestyle=":",
-                label=f"accurate MPM alone (n = {record['n_paired']})")
-        drawn = [(float(p), e) for p, e in record.get("converged", {}).get("distances", {}).get(key, {}).items()
-                 if None not in (e["estimate"], e["lower"], e["upper"])]
+            ax.step(
+                d,
+                curve["simulator"],
+                where="post",
+                color="0.5",
+                linestyle="--",
+                label="Monte Carlo's simulator (its map)",
+            )
+        ax.step(
+            d,
+            curve["paired_high"],
+            where="post",
+            color="k",
+            linestyle=":",
+            label=f"accurate MPM alone (n = {record['n_paired']})",
+        )
+        drawn = [
+            (float(p), e)
+            for p, e in record.get("converged", {}).get("distances", {}).get(key, {}).items()
+            if None not in (e["estimate"], e["lower"], e["upper"])
+        ]
         for k, (p, entry) in enumerate(drawn):
-            ax.errorbar([entry["estimate"]], [p], xerr=[[entry["estimate"] - entry["lower"]],
-                        [entry["upper"] - entry["estimate"]]], fmt="D", color="C2", capsize=3,
-                        label=None if k else "converged mesh: exceeded with P")
+            ax.errorbar(
+                [entry["estimate"]],
+                [p],
+                xerr=[[entry["estimate"] - entry["lower"]], [entry["upper"] - entry["estimate"]]],
+                fmt="D",
+                color="C2",
+                capsize=3,
+                label=None if k else "converged mesh: exceeded with P",
+            )
         ax.set_xlabel(f"{METRICS[key]} (m)")
         ax.set_ylabel("exceedance probability")
         ax.set_ylim(-0.02, 1.02)
@@ -152,8 +225,10 @@ def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
     ax.set_xlabel("x along the section (m)")
     ax.set_ylabel("P(affected)")
     ax.set_ylim(-0.02, 1.02)
-    fig.suptitle(f"{case}: multi-fidelity correction towards the MPM at {record['high_cell_size_m']:g} m cells"
-                 + (", and carried to the converged mesh" if "converged" in record else ""))
+    fig.suptitle(
+        f"{case}: multi-fidelity correction towards the MPM at {record['high_cell_size_m']:g} m cells"
+        + (", and carried to the converged mesh" if "converged" in record else "")
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -176,15 +251,32 @@ def plan_pairs(low: pd.DataFrame, pilot: pd.DataFrame, settings: dict[str, Any])
     chunks = -(-wanted // chunk)
     n_paired = min(chunks * chunk, realizations)
     half_width = predicted_half_width(std, rho, n_paired, len(low_rows), confidence)
-    return {"target_half_width_m": target, "pilot": len(pilot), "n_low": len(low_rows), "std_m": std,
-            "correlation": rho, "needed": needed if math.isfinite(needed) else None, "cap": cap,
-            "chunks": chunks, "n_paired": n_paired, "predicted_half_width_m": half_width,
-            "reached": bool(half_width <= target + 1e-12)}
+    return {
+        "target_half_width_m": target,
+        "pilot": len(pilot),
+        "n_low": len(low_rows),
+        "std_m": std,
+        "correlation": rho,
+        "needed": needed if math.isfinite(needed) else None,
+        "cap": cap,
+        "chunks": chunks,
+        "n_paired": n_paired,
+        "predicted_half_width_m": half_width,
+        "reached": bool(half_width <= target + 1e-12),
+    }
 
 
-def write_multifidelity(low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float],
-                        outputs: dict[str, str], case: str, plan: dict[str, Any] | None = None,
-                        simulator: pd.DataFrame | None = None, coarse: pd.DataFrame | None = None) -> dict[str, Any]:
+def write_multifidelity(
+    low: pd.DataFrame,
+    high: pd.DataFrame,
+    settings: dict[str, Any],
+    cost: dict[str, float],
+    outputs: dict[str, str],
+    case: str,
+    plan: dict[str, Any] | None = None,
+    simulator: pd.DataFrame | None = None,
+    coarse: pd.DataFrame | None = None,
+) -> dict[str, Any]:
     """Correct, then write the JSON (with the paired-run ``plan`` where one chose the pairs, the Monte
     Carlo's own means and curves: its ``simulator`` table where that is not the cheap route, and with the
     pairs at the Monte Carlo's mesh, ``coarse``, the estimates at the converged mesh) and the figure."""
@@ -201,7 +293,7 @@ def write_multifidelity(low: pd.DataFrame, high: pd.DataFrame, settings: dict[st
         curve["simulator"] = [float(np.mean(values > d)) for d in curve["d_m"]]
         # its distances by the exceedance table's own estimator (rgns.hazard), so the two tables agree
         own_distances = exceedance_distances(values, [float(p) for p in curve["distances"]], confidence=0.95)
-        for (p, distances), own_distance in zip(curve["distances"].items(), own_distances):
+        for distances, own_distance in zip(curve["distances"].values(), own_distances):
             distances["simulator"] = own_distance.distance_m
     if plan is not None:
         record["plan"] = plan

@@ -21,6 +21,7 @@ estimates that step inside the same bootstrap, at the low and high ends of the o
 well, and reports the envelope, so the interval holds sampling, every weight and the order's
 uncertainty.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -97,8 +98,9 @@ def _blocks(counts: list[int]) -> list[np.ndarray]:
     return [np.arange(lo, hi) for lo, hi in zip(edges, edges[1:]) if hi > lo]
 
 
-def _bootstrap(levels: list[np.ndarray], statistic_of, confidence: float, resamples: int, seed: int
-               ) -> tuple[np.ndarray, np.ndarray]:
+def _bootstrap(
+    levels: list[np.ndarray], statistic_of, confidence: float, resamples: int, seed: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Stratified percentile bootstrap of ``statistic_of(resampled levels)`` over the nested blocks."""
     counts = [len(level) for level in levels]
     blocks = _blocks(counts)
@@ -109,15 +111,23 @@ def _bootstrap(levels: list[np.ndarray], statistic_of, confidence: float, resamp
         return np.moveaxis(statistic_of(resampled), -1, 0)
 
     samples = tuple(np.arange(len(block)) for block in blocks)
-    boot = stats.bootstrap(samples, statistic, paired=False, vectorized=True, n_resamples=resamples,
-                           confidence_level=expanded_level(confidence, counts[0]), method="percentile",
-                           batch=max(1, 4_000_000 // max(1, counts[-1] * levels[0].shape[1])),
-                           random_state=np.random.default_rng(seed))
+    boot = stats.bootstrap(
+        samples,
+        statistic,
+        paired=False,
+        vectorized=True,
+        n_resamples=resamples,
+        confidence_level=expanded_level(confidence, counts[0]),
+        method="percentile",
+        batch=max(1, 4_000_000 // max(1, counts[-1] * levels[0].shape[1])),
+        random_state=np.random.default_rng(seed),
+    )
     return boot.confidence_interval
 
 
-def multilevel(levels: list[np.ndarray], confidence: float = 0.95, resamples: int = RESAMPLES,
-               seed: int = 0) -> MultilevelEstimate:
+def multilevel(
+    levels: list[np.ndarray], confidence: float = 0.95, resamples: int = RESAMPLES, seed: int = 0
+) -> MultilevelEstimate:
     """The finest level's mean of each quantity from nested levels [n_k, ...], finest first."""
     if not 0.0 < confidence < 1.0:
         raise MultiFidelityError(f"confidence must lie in (0, 1), got {confidence}")
@@ -127,11 +137,15 @@ def multilevel(levels: list[np.ndarray], confidence: float = 0.95, resamples: in
     lower, upper = _bootstrap(arrays, lambda r: _estimate(r, axis=-2)[0], confidence, resamples, seed)
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)
     return MultilevelEstimate(
-        estimate=estimate.reshape(shape), lower=np.asarray(lower).reshape(shape), upper=np.asarray(upper).reshape(shape),
+        estimate=estimate.reshape(shape),
+        lower=np.asarray(lower).reshape(shape),
+        upper=np.asarray(upper).reshape(shape),
         level_means=[a.mean(axis=0).reshape(shape) for a in arrays],
         weights=[np.ones(shape)] + [w.reshape(shape) for w in weights],
         corrections=[np.zeros(shape)] + [c.reshape(shape) for c in corrections],
-        counts=[len(a) for a in arrays], confidence=confidence)
+        counts=[len(a) for a in arrays],
+        confidence=confidence,
+    )
 
 
 @dataclass
@@ -150,13 +164,20 @@ class Extrapolated:
     finest: MultilevelEstimate
 
 
-def richardson_step(fine: np.ndarray, coarse: np.ndarray, ratio: float, order: float) -> np.ndarray:
+def richardson_step(fine: np.ndarray, coarse: np.ndarray, ratio: float, order: float | np.ndarray) -> np.ndarray:
     """What the finer of two meshes still misses: (fine - coarse) / (ratio^order - 1)."""
-    return (np.asarray(fine) - np.asarray(coarse)) / (ratio ** order - 1.0)
+    return (np.asarray(fine) - np.asarray(coarse)) / (ratio**order - 1.0)
 
 
-def extrapolated(levels: list[np.ndarray], ratio: float, order: float, order_interval: tuple[float, float],
-                 confidence: float = 0.95, resamples: int = RESAMPLES, seed: int = 0) -> Extrapolated:
+def extrapolated(
+    levels: list[np.ndarray],
+    ratio: float,
+    order: float,
+    order_interval: tuple[float, float],
+    confidence: float = 0.95,
+    resamples: int = RESAMPLES,
+    seed: int = 0,
+) -> Extrapolated:
     """The converged mean of each quantity: the multilevel estimate of ``levels`` (finest first; the
     first two are meshes whose cells differ by ``ratio``) plus the Richardson step of their paired
     means at the observed ``order``. The interval is the envelope of the bootstrap intervals at the
@@ -173,18 +194,25 @@ def extrapolated(levels: list[np.ndarray], ratio: float, order: float, order_int
     def statistic(resampled: list[np.ndarray]) -> np.ndarray:
         n0 = resampled[0].shape[-2]
         estimate = _estimate(resampled, axis=-2)[0]
-        step = richardson_step(resampled[0].mean(axis=-2), resampled[1][..., :n0, :].mean(axis=-2), ratio,
-                               orders[:, None, None])  # [3, B, Q]
+        step = richardson_step(
+            resampled[0].mean(axis=-2), resampled[1][..., :n0, :].mean(axis=-2), ratio, orders[:, None, None]
+        )  # [3, B, Q]
         return np.moveaxis(estimate[None] + step, 0, -2).reshape(*estimate.shape[:-1], -1)  # [B, 3 Q]
 
     lower, upper = _bootstrap(arrays, statistic, confidence, resamples, seed)
     q = arrays[0].shape[1]
-    steps = richardson_step(arrays[0].mean(axis=0), arrays[1][:len(arrays[0])].mean(axis=0), ratio, orders[:, None])
+    steps = richardson_step(arrays[0].mean(axis=0), arrays[1][: len(arrays[0])].mean(axis=0), ratio, orders[:, None])
     point = finest.estimate.reshape(-1) + steps[0]
     lower = np.minimum(np.asarray(lower).reshape(3, q).min(axis=0), point)
     upper = np.maximum(np.asarray(upper).reshape(3, q).max(axis=0), point)
     shape = finest.estimate.shape
-    return Extrapolated(estimate=point.reshape(shape), lower=lower.reshape(shape), upper=upper.reshape(shape),
-                        mesh_error=steps[0].reshape(shape),
-                        mesh_error_range=(steps.min(axis=0).reshape(shape), steps.max(axis=0).reshape(shape)),
-                        order=order, order_interval=(low_order, high_order), finest=finest)
+    return Extrapolated(
+        estimate=point.reshape(shape),
+        lower=lower.reshape(shape),
+        upper=upper.reshape(shape),
+        mesh_error=steps[0].reshape(shape),
+        mesh_error_range=(steps.min(axis=0).reshape(shape), steps.max(axis=0).reshape(shape)),
+        order=order,
+        order_interval=(low_order, high_order),
+        finest=finest,
+    )

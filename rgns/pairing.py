@@ -8,6 +8,7 @@ The GNS takes over, as in the Monte Carlo, after the MPM's first ``rollout.warmu
 per-particle friction, and runs as many frames as the MPM trajectory holds. Both
 sides are measured by the same code (:mod:`rgns.metrics`) from positions alone.
 """
+
 from __future__ import annotations
 
 import logging
@@ -25,8 +26,11 @@ from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_me
 from rgns.trajectories import Trajectory
 
 log = logging.getLogger(__name__)
-PAIR_COLUMNS = ["index", "gns_status"] + [f"{key}_{side}" for key in ("runout_m", "volume_m2", "influence_m")
-                                          for side in ("mpm", "gns")] + ["final_position_mse_m2"]
+PAIR_COLUMNS = (
+    ["index", "gns_status"]
+    + [f"{key}_{side}" for key in ("runout_m", "volume_m2", "influence_m") for side in ("mpm", "gns")]
+    + ["final_position_mse_m2"]
+)
 
 
 @dataclass
@@ -43,22 +47,31 @@ class PairedCase:
         return {"time_s": self.time_s, "index": self.index, "mpm": self.mpm_energies, "gns": self.gns_energies}
 
 
-def _metric_columns(trajectory: Trajectory, positions: np.ndarray, crest: float, settings: MetricSettings,
-                    suffix: str) -> dict[str, float]:
+def _metric_columns(
+    trajectory: Trajectory, positions: np.ndarray, crest: float, settings: MetricSettings, suffix: str
+) -> dict[str, float]:
     measured = runout_metrics(positions[0], positions[-1], trajectory.volume_m2, crest, settings)
     return {f"{key}_{suffix}": getattr(measured, key) for key in ("runout_m", "volume_m2", "influence_m")}
 
 
-def pair_case(simulator: LearnedSimulator, trajectories: list[Trajectory], scenes: dict[int, Scene],
-              settings: MetricSettings, gravity_m_s2: float, batch_size: int = 1, device: str = "cpu",
-              rollout: RolloutSettings | None = None) -> PairedCase:
+def pair_case(
+    simulator: LearnedSimulator,
+    trajectories: list[Trajectory],
+    scenes: dict[int, Scene],
+    settings: MetricSettings,
+    gravity_m_s2: float,
+    batch_size: int = 1,
+    device: str = "cpu",
+    rollout: RolloutSettings | None = None,
+) -> PairedCase:
     """Roll the GNS out on every MPM trajectory of a case and pair the metrics."""
     rows, mpm_energies, gns_energies = [], [], []
     started = time.perf_counter()
     for first in range(0, len(trajectories), batch_size):
-        batch = trajectories[first:first + batch_size]
-        results = rollout_soil(simulator, [t.positions for t in batch], [t.friction_deg for t in batch],
-                               batch[0].n_frames, rollout, device)
+        batch = trajectories[first : first + batch_size]
+        results = rollout_soil(
+            simulator, [t.positions for t in batch], [t.friction_deg for t in batch], batch[0].n_frames, rollout, device
+        )
         for trajectory, result in zip(batch, results):
             crest = crest_x(scenes[trajectory.index].vertices)
             truth, predicted = trajectory.positions, result.positions
@@ -68,17 +81,36 @@ def pair_case(simulator: LearnedSimulator, trajectories: list[Trajectory], scene
             row |= _metric_columns(trajectory, predicted, crest, settings, "gns")
             row["final_position_mse_m2"] = float(final_error)
             rows.append(row)
-            mpm_energies.append(normalized_energies(truth, trajectory.mass_kg, trajectory.frame_interval_s, gravity_m_s2))
-            gns_energies.append(normalized_energies(predicted, trajectory.mass_kg, trajectory.frame_interval_s,
-                                                    gravity_m_s2))
-        log.info("%s: %d of %d realizations rolled out (%.0f s)", batch[0].set_name, len(rows), len(trajectories),
-                 time.perf_counter() - started)
-    return PairedCase(pd.DataFrame(rows)[PAIR_COLUMNS], trajectories[0].time_s, np.array([t.index for t in trajectories]),
-                      np.stack(mpm_energies), np.stack(gns_energies))
+            mpm_energies.append(
+                normalized_energies(truth, trajectory.mass_kg, trajectory.frame_interval_s, gravity_m_s2)
+            )
+            gns_energies.append(
+                normalized_energies(predicted, trajectory.mass_kg, trajectory.frame_interval_s, gravity_m_s2)
+            )
+        log.info(
+            "%s: %d of %d realizations rolled out (%.0f s)",
+            batch[0].set_name,
+            len(rows),
+            len(trajectories),
+            time.perf_counter() - started,
+        )
+    return PairedCase(
+        pd.DataFrame(rows)[PAIR_COLUMNS],
+        trajectories[0].time_s,
+        np.array([t.index for t in trajectories]),
+        np.stack(mpm_energies),
+        np.stack(gns_energies),
+    )
 
 
-def pair_end_states(model: EndStateModel, trajectories: list[Trajectory], scenes: dict[int, Scene],
-                    settings: MetricSettings, gravity_m_s2: float, device: str = "cpu") -> PairedCase:
+def pair_end_states(
+    model: EndStateModel,
+    trajectories: list[Trajectory],
+    scenes: dict[int, Scene],
+    settings: MetricSettings,
+    gravity_m_s2: float,
+    device: str = "cpu",
+) -> PairedCase:
     """The end-state surrogate on every MPM trajectory of a case (from its first frame), paired. Its
     energies are known at the start and the end only (NaN between: it has no path)."""
     finals = model.predict([t.positions[0] for t in trajectories], [t.friction_deg for t in trajectories], device)
@@ -97,5 +129,10 @@ def pair_end_states(model: EndStateModel, trajectories: list[Trajectory], scenes
         energies = np.full((trajectory.n_frames, 3), np.nan)
         energies[0], energies[-1] = ends[0], ends[-1]
         surrogate_energies.append(energies)
-    return PairedCase(pd.DataFrame(rows)[PAIR_COLUMNS], trajectories[0].time_s,
-                      np.array([t.index for t in trajectories]), np.stack(mpm_energies), np.stack(surrogate_energies))
+    return PairedCase(
+        pd.DataFrame(rows)[PAIR_COLUMNS],
+        trajectories[0].time_s,
+        np.array([t.index for t in trajectories]),
+        np.stack(mpm_energies),
+        np.stack(surrogate_energies),
+    )

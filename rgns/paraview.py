@@ -3,6 +3,7 @@
 Open ``trajectory.pvd`` in ParaView and press play: the particles move (each frame holds the
 current positions), coloured by displacement, velocity or friction angle.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -30,7 +31,9 @@ def write_vtu_series(trajectory: Trajectory, directory: str | Path, every_nth_fr
     cells = [meshio.CellBlock("vertex", np.arange(n).reshape(-1, 1))]
     entries = []
     for frame in range(0, trajectory.n_frames, every_nth_frame):
-        velocity = (positions[frame] - positions[frame - 1]) / trajectory.frame_interval_s if frame else np.zeros((n, 2))
+        velocity = (
+            (positions[frame] - positions[frame - 1]) / trajectory.frame_interval_s if frame else np.zeros((n, 2))
+        )
         name = f"frame_{frame:05d}.vtu"
         meshio.write(
             directory / name,
@@ -49,6 +52,7 @@ def write_vtu_series(trajectory: Trajectory, directory: str | Path, every_nth_fr
     index = directory / INDEX_FILE
     index.write_text(
         '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
-        + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n"
+        + "\n".join(entries)
+        + "\n  </Collection>\n</VTKFile>\n"
     )
     return index

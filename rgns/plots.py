@@ -1,4 +1,5 @@
 """Figures (matplotlib, Agg backend): one function per figure, each writes one file."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -20,15 +21,24 @@ def plot_scenes(scenes: list[Scene], fields: list[FrictionField], path: str | Pa
     first = scenes[0]
     aspect = first.domain_height_m / first.domain_length_m
     figure, axes = plt.subplots(
-        rows, columns, figsize=(6.0 * columns, 6.0 * columns * aspect * rows / columns + 1.0),
-        squeeze=False, constrained_layout=True,
+        rows,
+        columns,
+        figsize=(6.0 * columns, 6.0 * columns * aspect * rows / columns + 1.0),
+        squeeze=False,
+        constrained_layout=True,
     )
     low = min(float(f.friction_deg.min()) for f in fields)
     high = max(float(f.friction_deg.max()) for f in fields)
     for axis, scene, field in zip(axes.flat, scenes, fields):
         points = axis.scatter(
-            scene.positions[:, 0], scene.positions[:, 1], c=field.friction_deg, s=2.0,
-            cmap="viridis", vmin=low, vmax=high, linewidths=0,
+            scene.positions[:, 0],
+            scene.positions[:, 1],
+            c=field.friction_deg,
+            s=2.0,
+            cmap="viridis",
+            vmin=low,
+            vmax=high,
+            linewidths=0,
         )
         outline = np.vstack([scene.vertices, scene.vertices[:1]])
         axis.plot(outline[:, 0], outline[:, 1], color="black", linewidth=0.8)
@@ -41,7 +51,7 @@ def plot_scenes(scenes: list[Scene], fields: list[FrictionField], path: str | Pa
         )
         axis.set_xlabel("x (m)")
         axis.set_ylabel("y (m)")
-    for axis in list(axes.flat)[len(scenes):]:
+    for axis in list(axes.flat)[len(scenes) :]:
         axis.set_visible(False)
     figure.colorbar(points, ax=axes, label="friction angle (deg)", shrink=0.8)
     figure.savefig(path, dpi=120)
@@ -60,13 +70,20 @@ def plot_learning_curve(history_csv: str | Path, path: str | Path) -> None:
         valid = history.dropna(subset=["valid_one_step_loss"])
         loss_axis.semilogy(valid["step"], valid["valid_one_step_loss"], "o-", label="validation one-step")
         if "valid_mean_predictor_loss" in valid:
-            loss_axis.semilogy(valid["step"], valid["valid_mean_predictor_loss"], "k--",
-                               label="mean predictor, same windows")
+            loss_axis.semilogy(
+                valid["step"], valid["valid_mean_predictor_loss"], "k--", label="mean predictor, same windows"
+            )
         if "valid_runout_error_m" in valid:
             error_axis.plot(valid["step"], valid["valid_runout_error_m"], "o-", color="C2")
             best = valid.loc[valid["valid_rollout_score"].idxmin()]
-            error_axis.plot([best["step"]], [best["valid_runout_error_m"]], "*", color="C3", markersize=14,
-                            label=f"kept: step {int(best['step'])}")
+            error_axis.plot(
+                [best["step"]],
+                [best["valid_runout_error_m"]],
+                "*",
+                color="C3",
+                markersize=14,
+                label=f"kept: step {int(best['step'])}",
+            )
             error_axis.legend()
     loss_axis.set_xlabel("step")
     loss_axis.set_ylabel("MSE of normalised acceleration")
@@ -102,12 +119,18 @@ def plot_metric_sketch(path: str | Path) -> None:
     axis.scatter(*final[moved].T, s=1.0, color="#8c4f1a", label="deposit (final positions)")
     axis.scatter(*initial[~moved].T, s=1.0, color="#bbbbbb")
     y_arrow = -1.2
-    for start, end, text in ((metrics.toe_x_m, metrics.front_x_m, f"R = {metrics.runout_m:.1f} m"),
-                             (metrics.rear_x_m, crest, f"I = {metrics.influence_m:.1f} m")):
+    for start, end, text in (
+        (metrics.toe_x_m, metrics.front_x_m, f"R = {metrics.runout_m:.1f} m"),
+        (metrics.rear_x_m, crest, f"I = {metrics.influence_m:.1f} m"),
+    ):
         axis.annotate("", (end, y_arrow), (start, y_arrow), arrowprops={"arrowstyle": "<->"})
         axis.text((start + end) / 2, y_arrow - 0.9, text, ha="center", va="top")
-    for x, text in ((metrics.toe_x_m, "toe (P99 of\ninitial x)"), (metrics.front_x_m, "front (P99 of\ndisplaced final x)"),
-                    (crest, "crest"), (metrics.rear_x_m, "back scarp")):
+    for x, text in (
+        (metrics.toe_x_m, "toe (P99 of\ninitial x)"),
+        (metrics.front_x_m, "front (P99 of\ndisplaced final x)"),
+        (crest, "crest"),
+        (metrics.rear_x_m, "back scarp"),
+    ):
         axis.axvline(x, color="grey", linestyle=":", linewidth=0.8)
         axis.text(x, 11.2, text, ha="center", va="bottom", fontsize=8)
     axis.set_xlim(-1, 58)

@@ -1,5 +1,6 @@
 """What made a result: the rgns version, the checkout's commit, a digest of the configuration and
 the time, so that a report says which code and which inputs it comes from."""
+
 from __future__ import annotations
 
 import hashlib
@@ -21,9 +22,12 @@ def config_digest(config: dict[str, Any]) -> str:
 
 def commit(root: Path = REPO_ROOT) -> str:
     """The checkout's short commit, marked when files differ from it; 'no git checkout' otherwise."""
+
     def git(*args: str) -> str:
-        return subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, check=True,
-                              timeout=30).stdout.strip()
+        return subprocess.run(
+            ["git", "-C", str(root), *args], capture_output=True, text=True, check=True, timeout=30
+        ).stdout.strip()
+
     try:
         head = git("rev-parse", "--short=10", "HEAD")
         return head + (" with local changes" if git("status", "--porcelain", "--untracked-files=no") else "")
@@ -41,5 +45,9 @@ def version() -> str:
 
 def provenance(config: dict[str, Any]) -> dict[str, str]:
     """Version, commit, config digest and the UTC time now."""
-    return {"version": version(), "commit": commit(), "config_digest": config_digest(config),
-            "made_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")}
+    return {
+        "version": version(),
+        "commit": commit(),
+        "config_digest": config_digest(config),
+        "made_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+    }

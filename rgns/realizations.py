@@ -8,6 +8,7 @@ The deterministic *mean-field* realization has the mean geometry (the midpoint o
 range) and a uniform friction angle equal to the field mean; it is the reference the exceedance
 curves mark.
 """
+
 from __future__ import annotations
 
 import copy
@@ -39,17 +40,24 @@ class CaseInputs:
     random_field: dict[str, Any]
 
     @classmethod
-    def from_config(cls, config: dict[str, Any], case: str) -> "CaseInputs":
+    def from_config(cls, config: dict[str, Any], case: str) -> CaseInputs:
         """The inputs of test case ``case`` (a set of one group, as rgns.config checks)."""
         group = config["sets"][case][0]
         geometry = config["geometry"]
-        return cls(seed=config["seed"], case=case, family_name=group["family"],
-                   family=geometry["families"][group["family"]], group={key: group[key] for key in FIELD_KEYS},
-                   domain=config["domain"], mesh=config["mesh"], geometry={key: geometry[key] for key in DRAW_KEYS},
-                   random_field=config["random_field"])
+        return cls(
+            seed=config["seed"],
+            case=case,
+            family_name=group["family"],
+            family=geometry["families"][group["family"]],
+            group={key: group[key] for key in FIELD_KEYS},
+            domain=config["domain"],
+            mesh=config["mesh"],
+            geometry={key: geometry[key] for key in DRAW_KEYS},
+            random_field=config["random_field"],
+        )
 
     @classmethod
-    def from_params(cls, params: dict[str, Any]) -> "CaseInputs":
+    def from_params(cls, params: dict[str, Any]) -> CaseInputs:
         return cls(**{key: params[key] for key in cls.__dataclass_fields__})
 
     @property
@@ -71,24 +79,33 @@ def accurate_case_inputs(config: dict[str, Any], case: str, cell_size_m: float) 
     """Case ``case`` drawn at ``cell_size_m`` cells: the same geometry, and the friction field on the
     config's own grid, so a realization index is the same slope and soil at both meshes."""
     accurate = copy.deepcopy(config)
-    accurate["random_field"]["grid_spacing_m"] = (config["random_field"]["grid_spacing_m"]
-                                                  or config["mesh"]["cell_size_m"])
+    accurate["random_field"]["grid_spacing_m"] = (
+        config["random_field"]["grid_spacing_m"] or config["mesh"]["cell_size_m"]
+    )
     accurate["mesh"]["cell_size_m"] = cell_size_m
     return CaseInputs.from_config(accurate, case)
 
 
 def draw_scene(inputs: CaseInputs, index: int) -> Scene:
     """Realization ``index``'s scene alone, from its own seed (no friction field)."""
-    return build_scene(inputs.case, index, inputs.family_name, inputs.family, inputs.domain, inputs.mesh,
-                       inputs.geometry, inputs.seed)
+    return build_scene(
+        inputs.case, index, inputs.family_name, inputs.family, inputs.domain, inputs.mesh, inputs.geometry, inputs.seed
+    )
 
 
 def draw_realization(inputs: CaseInputs, index: int) -> Realization:
     """Realization ``index``: its scene and friction field from its own seeds."""
     scene = draw_scene(inputs, index)
     field = friction_field(
-        inputs.seed, inputs.case, index, inputs.group, inputs.field_grid, inputs.random_field["method"],
-        tuple(inputs.random_field["friction_bounds_deg"]), scene.positions)
+        inputs.seed,
+        inputs.case,
+        index,
+        inputs.group,
+        inputs.field_grid,
+        inputs.random_field["method"],
+        tuple(inputs.random_field["friction_bounds_deg"]),
+        scene.positions,
+    )
     return Realization(index, scene, field.friction_deg)
 
 
@@ -107,8 +124,18 @@ def mean_field_realization(inputs: CaseInputs) -> Realization:
     """The deterministic reference: mean geometry, uniform friction at the field mean."""
     vertices = mean_vertices(inputs.family)
     positions, volumes = seed_particles(vertices, inputs.mesh["cell_size_m"], inputs.mesh["particles_per_cell"])
-    scene = Scene(inputs.case, MEAN_FIELD, inputs.family_name, vertices, positions, volumes,
-                  float(inputs.domain["length_m"]), float(inputs.domain["height_m"]),
-                  float(inputs.mesh["cell_size_m"]), int(inputs.mesh["particles_per_cell"]), draws=0)
+    scene = Scene(
+        inputs.case,
+        MEAN_FIELD,
+        inputs.family_name,
+        vertices,
+        positions,
+        volumes,
+        float(inputs.domain["length_m"]),
+        float(inputs.domain["height_m"]),
+        float(inputs.mesh["cell_size_m"]),
+        int(inputs.mesh["particles_per_cell"]),
+        draws=0,
+    )
     mean_deg = _midpoint(inputs.group["friction_mean_deg"])
     return Realization(MEAN_FIELD, scene, np.full(len(positions), mean_deg))

@@ -13,6 +13,7 @@ admissible one (tangent to the floor, or with A level with the centre); ``refine
 zoom in on the best circle. The polygon rests on a rigid floor: arcs stay above it, and vertical edges
 on the side walls (x = 0 and x = ``domain_length_m``) are not free faces.
 """
+
 from __future__ import annotations
 
 import math
@@ -75,9 +76,18 @@ def surface_height(vertices: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def bishop_factor_of_safety(
-    centre_x: np.ndarray, centre_y: np.ndarray, radius: np.ndarray, entry_x: np.ndarray, exit_x: np.ndarray,
-    vertices: np.ndarray, points: cKDTree, tan_phi: np.ndarray, gamma: float, cohesion: float,
-    slices: int = 40, min_depth_m: float = 0.0,
+    centre_x: np.ndarray,
+    centre_y: np.ndarray,
+    radius: np.ndarray,
+    entry_x: np.ndarray,
+    exit_x: np.ndarray,
+    vertices: np.ndarray,
+    points: cKDTree,
+    tan_phi: np.ndarray,
+    gamma: float,
+    cohesion: float,
+    slices: int = 40,
+    min_depth_m: float = 0.0,
 ) -> np.ndarray:
     """FS of each circle [C] by Bishop's simplified method for a slide towards +x; inf where invalid.
 
@@ -142,8 +152,17 @@ def _ground_surface(vertices: np.ndarray, walls_x: np.ndarray) -> np.ndarray:
 class _Search:
     """Trial circles of one slide direction (towards +x in this frame) and their FS."""
 
-    def __init__(self, vertices: np.ndarray, walls_x: np.ndarray, points: cKDTree, tan_phi: np.ndarray,
-                 gamma: float, cohesion: float, min_depth_m: float, settings: ScreenSettings) -> None:
+    def __init__(
+        self,
+        vertices: np.ndarray,
+        walls_x: np.ndarray,
+        points: cKDTree,
+        tan_phi: np.ndarray,
+        gamma: float,
+        cohesion: float,
+        min_depth_m: float,
+        settings: ScreenSettings,
+    ) -> None:
         self.vertices, self.points, self.tan_phi = vertices, points, tan_phi
         self.gamma, self.cohesion, self.min_depth_m, self.settings = gamma, cohesion, min_depth_m, settings
         self.edges = _ground_surface(vertices, walls_x)
@@ -192,9 +211,16 @@ class _Search:
         circles = self.circles(params)
         ok = np.isfinite(circles[0])
         fs = np.full(len(params), np.inf)
-        fs[ok] = bishop_factor_of_safety(*(column[ok] for column in circles), self.vertices, self.points,
-                                         self.tan_phi, self.gamma, self.cohesion, self.settings.slices,
-                                         self.min_depth_m)
+        fs[ok] = bishop_factor_of_safety(
+            *(column[ok] for column in circles),
+            self.vertices,
+            self.points,
+            self.tan_phi,
+            self.gamma,
+            self.cohesion,
+            self.settings.slices,
+            self.min_depth_m,
+        )
         return fs
 
     def minimum(self) -> tuple[float, np.ndarray]:
@@ -221,8 +247,14 @@ class _Search:
 
 
 def minimum_factor_of_safety(
-    vertices: np.ndarray, positions: np.ndarray, friction_deg: np.ndarray, cell_size_m: float, gamma: float,
-    cohesion: float, settings: ScreenSettings, domain_length_m: float = math.inf,
+    vertices: np.ndarray,
+    positions: np.ndarray,
+    friction_deg: np.ndarray,
+    cell_size_m: float,
+    gamma: float,
+    cohesion: float,
+    settings: ScreenSettings,
+    domain_length_m: float = math.inf,
 ) -> ScreenResult:
     """Minimum Bishop FS of a slope over circles sliding either way, and the critical circle.
 
@@ -235,13 +267,14 @@ def minimum_factor_of_safety(
     result = ScreenResult(math.inf, (math.nan, math.nan), math.nan, math.nan, math.nan)
     for sign in (1.0, -1.0):  # slides towards +x, then towards -x in the mirrored frame
         origin = float(np.min(sign * vertices[:, 0]))  # the frame starts at the polygon's left end
-        frame = vertices[::int(sign)] * [sign, 1.0] - [origin, 0.0]
+        frame = vertices[:: int(sign)] * [sign, 1.0] - [origin, 0.0]
         walls_x = sign * np.array([0.0, domain_length_m]) - origin
         points = cKDTree(positions * [sign, 1.0] - [origin, 0.0])
         search = _Search(frame, walls_x, points, tan_phi, gamma, cohesion, min_depth_m, settings)
         fs, params = search.minimum()
         if fs < result.factor_of_safety:
             centre_x, centre_y, radius, entry_x, exit_x = (float(c[0]) for c in search.circles(params[None]))
-            result = ScreenResult(fs, (sign * (centre_x + origin), centre_y), radius, sign * (entry_x + origin),
-                                  sign * (exit_x + origin))
+            result = ScreenResult(
+                fs, (sign * (centre_x + origin), centre_y), radius, sign * (entry_x + origin), sign * (exit_x + origin)
+            )
     return result

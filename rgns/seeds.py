@@ -3,6 +3,7 @@
 A stream is keyed by (base seed, set name, realization index, purpose), never by job order or
 chunking, so re-running one realization, or splitting a set differently, reproduces it exactly.
 """
+
 from __future__ import annotations
 
 import zlib

@@ -1,4 +1,5 @@
 """Realization sets: a list of groups, realizations numbered through the groups in order."""
+
 from __future__ import annotations
 
 from typing import Any
@@ -27,4 +28,3 @@ def realization_ids(groups: list[dict[str, Any]]) -> list[str]:
 def format_id(index: int) -> str:
     """The zero-padded id used in file names."""
     return f"{index:04d}"
-

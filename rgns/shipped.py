@@ -6,6 +6,7 @@ scale is not used at another: its positions are metres, its walls the training d
 step the training frame interval, so a config that differs in any of those keys is refused with
 the keys named (train or fine-tune a model for it instead).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -18,8 +19,14 @@ import pandas as pd
 
 MODELS = Path(__file__).parent / "models"
 # config keys a model is tied to: the walls it learned, the resolution and the time step
-SERVED_KEYS = (("domain", "length_m"), ("domain", "height_m"), ("mesh", "cell_size_m"),
-               ("mesh", "particles_per_cell"), ("mpm", "frame_interval_s"), ("mpm", "gravity_m_s2"))
+SERVED_KEYS = (
+    ("domain", "length_m"),
+    ("domain", "height_m"),
+    ("mesh", "cell_size_m"),
+    ("mesh", "particles_per_cell"),
+    ("mpm", "frame_interval_s"),
+    ("mpm", "gravity_m_s2"),
+)
 
 
 class ShippedModelError(ValueError):
@@ -36,22 +43,30 @@ def read_card(directory: str | Path = MODELS, name: str = "card.json") -> dict[s
 
 def tied_values(config: dict[str, Any], keys: tuple[tuple[str, ...], ...] = SERVED_KEYS) -> dict[str, Any]:
     """The values of ``keys`` (paths such as (section, key)) in ``config``, named "section.key" (None if absent)."""
+
     def value(path: tuple[str, ...]) -> Any:
         node: Any = config
         for part in path:
             node = node.get(part) if isinstance(node, dict) else None
         return node
+
     return {".".join(key): value(key) for key in keys}
 
 
 def refuse_unserved(trained: dict[str, Any], config: dict[str, Any], model: str, setting: str) -> None:
     """Raise naming every tied key whose value in ``config`` differs from ``trained`` (its values as trained)."""
     keys = tuple(tuple(name.split(".")) for name in trained)
-    wrong = [f"{name} is {value!r}, the model was trained at {trained[name]!r}"
-             for name, value in tied_values(config, keys).items() if value != trained[name]]
+    wrong = [
+        f"{name} is {value!r}, the model was trained at {trained[name]!r}"
+        for name, value in tied_values(config, keys).items()
+        if value != trained[name]
+    ]
     if wrong:
-        raise ShippedModelError(f"the shipped {model} does not serve this config: " + "; ".join(wrong)
-                                + f" (set {setting}: train to train one for it)")
+        raise ShippedModelError(
+            f"the shipped {model} does not serve this config: "
+            + "; ".join(wrong)
+            + f" (set {setting}: train to train one for it)"
+        )
 
 
 def served(card: dict[str, Any]) -> dict[str, Any]:
@@ -64,16 +79,25 @@ def check_serves(card: dict[str, Any], config: dict[str, Any]) -> None:
     refuse_unserved(served(card), config, "GNS", "gns.model")
 
 
-def install(directory: str | Path, config: dict[str, Any], model_out: str | Path, curve_out: str | Path,
-            evaluation_out: str | Path) -> dict[str, Any]:
+def install(
+    directory: str | Path,
+    config: dict[str, Any],
+    model_out: str | Path,
+    curve_out: str | Path,
+    evaluation_out: str | Path,
+) -> dict[str, Any]:
     """Check the shipped model serves ``config`` and copy it, its learning curve and its evaluation."""
     directory = Path(directory)
     card = read_card(directory)
     check_serves(card, config)
     shutil.copyfile(directory / "gns.pt", model_out)
     shutil.copyfile(directory / "learning_curve.png", curve_out)
-    evaluation = card["evaluation"] | {"steps": card["steps"], "selected_step": card["selected_step"],
-                                       "wall_s": card["wall_s"], "shipped": True}
+    evaluation = card["evaluation"] | {
+        "steps": card["steps"],
+        "selected_step": card["selected_step"],
+        "wall_s": card["wall_s"],
+        "shipped": True,
+    }
     Path(evaluation_out).write_text(json.dumps(evaluation, indent=2) + "\n")
     return card
 
@@ -88,8 +112,13 @@ def data_fingerprint(paths: list[str | Path]) -> str:
     return digest.hexdigest()
 
 
-def make_card(config: dict[str, Any], data_paths: list[str | Path], history_csv: str | Path,
-              evaluation: dict[str, Any], summary: dict[str, Any]) -> dict[str, Any]:
+def make_card(
+    config: dict[str, Any],
+    data_paths: list[str | Path],
+    history_csv: str | Path,
+    evaluation: dict[str, Any],
+    summary: dict[str, Any],
+) -> dict[str, Any]:
     """The card of a trained model: the config and data it came from, its steps, time and curve."""
     history = pd.read_csv(history_csv)
     validated = history.dropna(subset=["valid_one_step_loss"])
@@ -115,14 +144,20 @@ def render_card(card: dict[str, Any], validation_markdown: str | None = None) ->
     kept, last = card["kept_validation"], card["last_validation"]
     ratio = kept["valid_one_step_loss"] / kept["valid_mean_predictor_loss"]
     lines = [
-        "# The shipped GNS: model card", "",
+        "# The shipped GNS: model card",
+        "",
         "Produced by the pipeline: `snakemake --cores 2 --configfile config/pretrain.yaml --directory work/pretrain "
-        "pretrain` (README, \"The shipped model\").", "",
-        "## What it serves", "",
+        'pretrain` (README, "The shipped model").',
+        "",
+        "## What it serves",
+        "",
         "Only configs whose keys below equal these values (positions are metres, walls the training domain's, the "
-        "time step the training frame interval); `rgns.shipped.check_serves` refuses any other, naming the key.", "",
-        *(f"* `{key}`: {value}" for key, value in card["serves"].items()), "",
-        "## Training", "",
+        "time step the training frame interval); `rgns.shipped.check_serves` refuses any other, naming the key.",
+        "",
+        *(f"* `{key}`: {value}" for key, value in card["serves"].items()),
+        "",
+        "## Training",
+        "",
         f"* data: {', '.join(card['data'])}, SHA-256 `{card['data_fingerprint'][:16]}…`",
         f"* {card['steps']} steps in {card['wall_s'] / 60:.0f} min (one CPU thread); kept: step "
         f"{card['selected_step']}, the best held-out rollout score",
@@ -132,8 +167,10 @@ def render_card(card: dict[str, Any], validation_markdown: str | None = None) ->
         f"{kept['valid_runout_error_m']:.2f} m",
         f"* last validation (step {card['steps']}): one-step loss {last['valid_one_step_loss']:.4g}, mean |R error| "
         f"{last['valid_runout_error_m']:.2f} m",
-        *(f"* {note}" for note in card.get("notes", [])), "",
-        "![learning curve](learning_curve.png)", "",
+        *(f"* {note}" for note in card.get("notes", [])),
+        "",
+        "![learning curve](learning_curve.png)",
+        "",
     ]
     if validation_markdown:
         lines += ["## Validation against fresh MPM runs of the test cases", "", validation_markdown.strip(), ""]

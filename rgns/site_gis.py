@@ -4,6 +4,7 @@ and a map view over the DEM's hillshade.
 Model x is chainage - ``chainage_from_m``; the files are in the section's CRS (a DEM's), or in the
 local frame (chainage, 0) for a CSV section, which the GeoJSON says in its ``frame`` member.
 """
+
 from __future__ import annotations
 
 import json
@@ -25,8 +26,10 @@ from rgns.hazard_plots import ZONE_COLOURS  # noqa: E402
 from rgns.site_section import Section, cumulative_length, site_file  # noqa: E402
 from rgns.tables import write_csv  # noqa: E402
 
-LOCAL_FRAME = ("local: x is the chainage along the section (m) from its first point, y is 0; the section "
-               "has no coordinate reference system (a CSV cross-section)")
+LOCAL_FRAME = (
+    "local: x is the chainage along the section (m) from its first point, y is 0; the section "
+    "has no coordinate reference system (a CSV cross-section)"
+)
 # an engineering CRS, so that a GIS does not take the local frame for longitude and latitude (GeoJSON's default)
 LOCAL_CRS = 'LOCAL_CS["rgns section frame: x = chainage (m), y = 0",UNIT["metre",1]]'
 
@@ -43,8 +46,9 @@ def _line_through(section: Section, start: float, end: float) -> list[list[float
     return section.map_points(np.concatenate([[start], inner, [end]])).tolist()
 
 
-def zone_features(zoning: dict[str, Any], section: Section, chainage_from_m: float,
-                  domain_length_m: float, name: str) -> dict[str, Any]:
+def zone_features(
+    zoning: dict[str, Any], section: Section, chainage_from_m: float, domain_length_m: float, name: str
+) -> dict[str, Any]:
     """A GeoJSON FeatureCollection: one LineString per contiguous zone, in chainage order."""
     low, high = modelled_range(section, chainage_from_m, domain_length_m)
     features = []
@@ -53,13 +57,20 @@ def zone_features(zoning: dict[str, Any], section: Section, chainage_from_m: flo
         end = min(high, chainage_from_m + zone["x_to_m"])
         if end <= start:
             continue
-        features.append({
-            "type": "Feature",
-            "geometry": {"type": "LineString", "coordinates": _line_through(section, start, end)},
-            "properties": {"site": name, "level": zone["level"], "rank": ZONE_LEVELS.index(zone["level"]),
-                           "probability": zoning["levels"][zone["level"]],
-                           "chainage_from_m": round(start, 6), "chainage_to_m": round(end, 6)},
-        })
+        features.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "LineString", "coordinates": _line_through(section, start, end)},
+                "properties": {
+                    "site": name,
+                    "level": zone["level"],
+                    "rank": ZONE_LEVELS.index(zone["level"]),
+                    "probability": zoning["levels"][zone["level"]],
+                    "chainage_from_m": round(start, 6),
+                    "chainage_to_m": round(end, 6),
+                },
+            }
+        )
     collection: dict[str, Any] = {"type": "FeatureCollection", "name": f"{name}_zones", "features": features}
     collection["crs"] = {"type": "name", "properties": {"name": section.crs or LOCAL_CRS}}
     if not section.crs:
@@ -67,8 +78,14 @@ def zone_features(zoning: dict[str, Any], section: Section, chainage_from_m: flo
     return collection
 
 
-def exceedance_by_chainage(table: pd.DataFrame, section: Section, chainage_from_m: float, domain_length_m: float,
-                           resolution_m: float, confidence: float) -> pd.DataFrame:
+def exceedance_by_chainage(
+    table: pd.DataFrame,
+    section: Section,
+    chainage_from_m: float,
+    domain_length_m: float,
+    resolution_m: float,
+    confidence: float,
+) -> pd.DataFrame:
     """P(D > d) with its interval at every chainage point: runout beyond the toe, retreat behind the crest.
 
     A point at chainage c ahead of the toe is exceeded by runout when a realization's front passes
@@ -104,12 +121,25 @@ def _scale_bar(axis: plt.Axes, width_m: float) -> None:
     y0, y1 = axis.get_ylim()
     left, bottom = x0 + 0.05 * (x1 - x0), y0 + 0.06 * (y1 - y0)
     axis.plot([left, left + length], [bottom, bottom], color="black", linewidth=4, solid_capstyle="butt")
-    axis.text(left + length / 2, bottom + 0.02 * (y1 - y0), f"{length:g} m", ha="center", va="bottom",
-              fontsize=9, bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none"})
+    axis.text(
+        left + length / 2,
+        bottom + 0.02 * (y1 - y0),
+        f"{length:g} m",
+        ha="center",
+        va="bottom",
+        fontsize=9,
+        bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none"},
+    )
 
 
-def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, Any], levels: dict[str, str],
-                  name: str, path: str | Path) -> None:
+def plot_map_view(
+    dem_path: str | Path,
+    section: Section,
+    features: dict[str, Any],
+    levels: dict[str, str],
+    name: str,
+    path: str | Path,
+) -> None:
     """Hillshade over grey-blue elevation tints (no hue a hazard level uses), the section line coloured by hazard level, a scale bar and the CRS.
 
     ``levels`` maps each hazard level to its probability range (zoning.json's ``levels``).
@@ -126,9 +156,15 @@ def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, An
     extent = (bounds.left, bounds.right, bounds.bottom, bounds.top)
     axis.imshow(filled, cmap="bone", extent=extent, origin="upper", vmin=filled.min() - 0.6 * np.ptp(filled))
     axis.imshow(shade, cmap="gray", extent=extent, origin="upper", alpha=0.45)
-    contours = axis.contour(np.linspace(bounds.left, bounds.right, elevation.shape[1]),
-                            np.linspace(bounds.top, bounds.bottom, elevation.shape[0]), elevation,
-                            levels=10, colors="saddlebrown", linewidths=0.5, alpha=0.6)
+    contours = axis.contour(
+        np.linspace(bounds.left, bounds.right, elevation.shape[1]),
+        np.linspace(bounds.top, bounds.bottom, elevation.shape[0]),
+        elevation,
+        levels=10,
+        colors="saddlebrown",
+        linewidths=0.5,
+        alpha=0.6,
+    )
     axis.clabel(contours, fontsize=7, fmt="%.0f m")
     axis.plot(*section.line.T, color="black", linewidth=7, solid_capstyle="butt")
     segments = [np.asarray(f["geometry"]["coordinates"]) for f in features["features"]]
@@ -140,12 +176,22 @@ def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, An
     axis.set_ylim(extent[2:])
     axis.set_aspect("equal")
     _scale_bar(axis, bounds.right - bounds.left)
-    axis.text(0.99, 0.01, f"CRS {section.crs}", transform=axis.transAxes, ha="right", va="bottom", fontsize=9,
-              bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none"})
+    axis.text(
+        0.99,
+        0.01,
+        f"CRS {section.crs}",
+        transform=axis.transAxes,
+        ha="right",
+        va="bottom",
+        fontsize=9,
+        bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none"},
+    )
     axis.set_xlabel("easting (m)")
     axis.set_ylabel("northing (m)")
-    handles = [Line2D([], [], color=c, linewidth=5, label=f"{level} ({levels[level]})")
-               for c, level in zip(ZONE_COLOURS, ZONE_LEVELS)]
+    handles = [
+        Line2D([], [], color=c, linewidth=5, label=f"{level} ({levels[level]})")
+        for c, level in zip(ZONE_COLOURS, ZONE_LEVELS)
+    ]
     axis.legend(handles=handles, loc="upper right", fontsize=8, title="hazard level", title_fontsize=8)
     axis.set_title(f"{name}: hazard zones along the section (black: outside the model)")
     figure.tight_layout()
@@ -153,14 +199,27 @@ def plot_map_view(dem_path: str | Path, section: Section, features: dict[str, An
     plt.close(figure)
 
 
-def write_site_gis(table: pd.DataFrame, zoning: dict[str, Any], section: Section, settings: dict[str, Any],
-                   outputs: dict[str, str]) -> dict[str, Any]:
+def write_site_gis(
+    table: pd.DataFrame, zoning: dict[str, Any], section: Section, settings: dict[str, Any], outputs: dict[str, str]
+) -> dict[str, Any]:
     """zones.geojson, exceedance.csv and (for a DEM, ``settings["section"]["dem"]``) map.png of one site."""
-    features = zone_features(zoning, section, settings["chainage_from_m"], settings["domain_length_m"],
-                             settings["name"])
+    features = zone_features(
+        zoning, section, settings["chainage_from_m"], settings["domain_length_m"], settings["name"]
+    )
     Path(outputs["zones"]).write_text(json.dumps(features, indent=1) + "\n")
-    write_csv(exceedance_by_chainage(table, section, settings["chainage_from_m"], settings["domain_length_m"],
-                                     settings["resolution_m"], settings["confidence"]), outputs["exceedance"])
+    write_csv(
+        exceedance_by_chainage(
+            table,
+            section,
+            settings["chainage_from_m"],
+            settings["domain_length_m"],
+            settings["resolution_m"],
+            settings["confidence"],
+        ),
+        outputs["exceedance"],
+    )
     if "map" in outputs:
-        plot_map_view(site_file(settings["section"]["dem"]), section, features, zoning["levels"], settings["name"], outputs["map"])
+        plot_map_view(
+            site_file(settings["section"]["dem"]), section, features, zoning["levels"], settings["name"], outputs["map"]
+        )
     return features

@@ -5,6 +5,7 @@ Either way the result is a :class:`Section`: ground elevation at chainages space
 raster's coordinate reference system. Rasters are read with rasterio; the elevation between pixel
 centres is bilinear, so a CSV of the same profile gives the same section.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -63,19 +64,25 @@ def read_csv_section(path: str | Path, spacing_m: float) -> Section:
         raise SiteError(f"site.section.csv = {str(path)!r}: not a readable CSV ({error})") from error
     missing = {"chainage_m", "elevation_m"} - set(table.columns)
     if missing:
-        raise SiteError(f"site.section.csv = {str(path)!r}: no column {', '.join(sorted(missing))} "
-                        f"(have: {', '.join(map(str, table.columns))})")
+        raise SiteError(
+            f"site.section.csv = {str(path)!r}: no column {', '.join(sorted(missing))} "
+            f"(have: {', '.join(map(str, table.columns))})"
+        )
     chainage = table["chainage_m"].to_numpy(float)
     elevation = table["elevation_m"].to_numpy(float)
     bad = np.flatnonzero(~np.isfinite(chainage) | ~np.isfinite(elevation))
     if bad.size:
-        raise SiteError(f"site.section.csv = {str(path)!r}: row {bad[0] + 2} is not a number "
-                        f"(chainage {chainage[bad[0]]}, elevation {elevation[bad[0]]})")
+        raise SiteError(
+            f"site.section.csv = {str(path)!r}: row {bad[0] + 2} is not a number "
+            f"(chainage {chainage[bad[0]]}, elevation {elevation[bad[0]]})"
+        )
     steps = np.flatnonzero(np.diff(chainage) <= 0.0)
     if len(chainage) < 2 or steps.size:
         row = steps[0] + 3 if steps.size else 2
-        raise SiteError(f"site.section.csv = {str(path)!r}: chainage must increase strictly, row {row} "
-                        f"has {chainage[min(row - 2, len(chainage) - 1)]} m after {chainage[max(row - 3, 0)]} m")
+        raise SiteError(
+            f"site.section.csv = {str(path)!r}: chainage must increase strictly, row {row} "
+            f"has {chainage[min(row - 2, len(chainage) - 1)]} m after {chainage[max(row - 3, 0)]} m"
+        )
     grid = chainage[0] + chainage_grid(chainage[-1] - chainage[0], spacing_m)
     return Section(chainage_m=grid - chainage[0], elevation_m=np.interp(grid, chainage, elevation))
 
@@ -105,9 +112,11 @@ def sample_dem(path: str | Path, line: np.ndarray, crs: str | None, spacing_m: f
         except rasterio.errors.CRSError as error:
             raise SiteError(f"site.section.crs = {crs!r}: not a coordinate reference system ({error})") from error
         if raster_crs is None or wanted != raster_crs:
-            raise SiteError(f"site.section.crs = {crs!r} does not match the CRS of site.section.dem = "
-                            f"{str(path)!r} ({raster_crs.to_string() if raster_crs else 'none'}); give the "
-                            "line in the raster's CRS")
+            raise SiteError(
+                f"site.section.crs = {crs!r} does not match the CRS of site.section.dem = "
+                f"{str(path)!r} ({raster_crs.to_string() if raster_crs else 'none'}); give the "
+                "line in the raster's CRS"
+            )
     line = np.asarray(line, dtype=float)
     if line.ndim != 2 or line.shape[1] != 2 or len(line) < 2 or np.any(np.diff(cumulative_length(line)) <= 0.0):
         raise SiteError(f"site.section.line = {line.tolist()}: two or more distinct [x, y] points are needed")
@@ -118,12 +127,16 @@ def sample_dem(path: str | Path, line: np.ndarray, crs: str | None, spacing_m: f
     y_centres = transform.f + transform.e * (np.arange(rows) + 0.5)
     lo_x, hi_x = sorted((x_centres[0], x_centres[-1]))
     lo_y, hi_y = sorted((y_centres[0], y_centres[-1]))
-    outside = np.flatnonzero((points[:, 0] < lo_x) | (points[:, 0] > hi_x) | (points[:, 1] < lo_y) | (points[:, 1] > hi_y))
+    outside = np.flatnonzero(
+        (points[:, 0] < lo_x) | (points[:, 0] > hi_x) | (points[:, 1] < lo_y) | (points[:, 1] > hi_y)
+    )
     if outside.size:
         k = outside[0]
-        raise SiteError(f"site.section.line: the point at chainage {chainage[k]:.2f} m ({points[k, 0]:.2f}, "
-                        f"{points[k, 1]:.2f}) lies outside the pixel centres of site.section.dem = {str(path)!r} "
-                        f"(x {lo_x:.2f} to {hi_x:.2f}, y {lo_y:.2f} to {hi_y:.2f})")
+        raise SiteError(
+            f"site.section.line: the point at chainage {chainage[k]:.2f} m ({points[k, 0]:.2f}, "
+            f"{points[k, 1]:.2f}) lies outside the pixel centres of site.section.dem = {str(path)!r} "
+            f"(x {lo_x:.2f} to {hi_x:.2f}, y {lo_y:.2f} to {hi_y:.2f})"
+        )
     order = np.argsort(y_centres)  # the interpolator wants increasing axes; a north-up raster's rows run south
     missing = np.ma.getmaskarray(elevation) | ~np.isfinite(np.ma.getdata(elevation))
 
@@ -134,23 +147,28 @@ def sample_dem(path: str | Path, line: np.ndarray, crs: str | None, spacing_m: f
     nodata = np.flatnonzero(interpolate(missing.astype(float)) > 1e-9)  # a no-data pixel with a non-zero weight
     if nodata.size:
         k = nodata[0]
-        raise SiteError(f"site.section.dem = {str(path)!r}: no-data cells on the section line, first at chainage "
-                        f"{chainage[k]:.2f} m ({points[k, 0]:.2f}, {points[k, 1]:.2f}); {nodata.size} of "
-                        f"{chainage.size} samples")
-    return Section(chainage_m=chainage, elevation_m=sampled, line=line,
-                   crs=raster_crs.to_string() if raster_crs else None)
+        raise SiteError(
+            f"site.section.dem = {str(path)!r}: no-data cells on the section line, first at chainage "
+            f"{chainage[k]:.2f} m ({points[k, 0]:.2f}, {points[k, 1]:.2f}); {nodata.size} of "
+            f"{chainage.size} samples"
+        )
+    return Section(
+        chainage_m=chainage, elevation_m=sampled, line=line, crs=raster_crs.to_string() if raster_crs else None
+    )
 
 
 def read_section(section: dict, spacing_m: float) -> Section:
     """The section of config ``site.section``: a CSV, or a DEM and a line."""
     given = sorted(key for key in ("csv", "dem", "line") if section.get(key))
     if given not in (["csv"], ["dem", "line"]):
-        raise SiteError(f"config key 'site.section' gives {', '.join(given) or 'nothing'}: give either csv, or dem "
-                        "and line")
+        raise SiteError(
+            f"config key 'site.section' gives {', '.join(given) or 'nothing'}: give either csv, or dem and line"
+        )
     if section.get("csv"):
         return read_csv_section(site_file(section["csv"]), spacing_m)
-    return sample_dem(site_file(section["dem"]), np.asarray(section["line"], dtype=float), section.get("crs"),
-                      spacing_m)
+    return sample_dem(
+        site_file(section["dem"]), np.asarray(section["line"], dtype=float), section.get("crs"), spacing_m
+    )
 
 
 def site_file(path: str) -> str:

@@ -19,9 +19,11 @@ and closes it along the floor (y = 0), so a polygon always rests on the floor:
 
 Draws that make an invalid polygon (rgns.geometry.polygon_problems) are redrawn by the caller.
 """
+
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -48,8 +50,9 @@ def draw_params(family_name: str, family: dict[str, Any], rng: np.random.Generat
             drawn[name] = float(value)
     missing = sorted(set(REQUIRED[family["generator"]]) - set(drawn))
     if missing:
-        raise GeneratorError(f"geometry family {family_name!r} (generator {family['generator']!r}): params lacks "
-                             f"{', '.join(missing)}")
+        raise GeneratorError(
+            f"geometry family {family_name!r} (generator {family['generator']!r}): params lacks {', '.join(missing)}"
+        )
     return drawn
 
 
@@ -99,8 +102,14 @@ def terrain_surface(p: dict[str, float], rng: np.random.Generator) -> np.ndarray
     z = p["height_m"] * step + np.tan(np.radians(p["crest_tilt_deg"])) * (centre - x) * step
     for _ in range(int(p["bumps"])):
         wavelength = rng.uniform(6.0, 30.0)
-        z += p["roughness"] * p["height_m"] * step * (1 - step) * 4.0 * np.sin(
-            2 * np.pi * x / wavelength + rng.uniform(0, 2 * np.pi))
+        z += (
+            p["roughness"]
+            * p["height_m"]
+            * step
+            * (1 - step)
+            * 4.0
+            * np.sin(2 * np.pi * x / wavelength + rng.uniform(0, 2 * np.pi))
+        )
     z -= 0.05 * p["height_m"]  # the base sits a little above the foot, so the body ends at a toe
     below = np.flatnonzero(z <= 0.0)
     end = below[0] if len(below) else len(x) - 1
@@ -117,10 +126,23 @@ def _close(surface: np.ndarray, rear: np.ndarray) -> np.ndarray:
 
 
 BUILDERS: dict[str, Callable[[dict[str, float], np.random.Generator], np.ndarray]] = {
-    "slope": slope_surface, "embankment": embankment_surface, "terrain": terrain_surface}
+    "slope": slope_surface,
+    "embankment": embankment_surface,
+    "terrain": terrain_surface,
+}
 REQUIRED = {
-    "slope": ("height_m", "face_angle_deg", "curvature", "benches", "bench_width_m", "crest_length_m",
-              "crest_tilt_deg", "free_rear", "back_angle_deg", "rear_x_m"),
+    "slope": (
+        "height_m",
+        "face_angle_deg",
+        "curvature",
+        "benches",
+        "bench_width_m",
+        "crest_length_m",
+        "crest_tilt_deg",
+        "free_rear",
+        "back_angle_deg",
+        "rear_x_m",
+    ),
     "embankment": ("height_m", "face_angle_deg", "back_angle_deg", "crest_length_m", "crest_tilt_deg", "left_toe_m"),
     "terrain": ("height_m", "face_length_m", "crest_length_m", "crest_tilt_deg", "bumps", "roughness"),
 }
@@ -128,10 +150,12 @@ REQUIRED = {
 
 def midpoint_family(family: dict[str, Any]) -> dict[str, Any]:
     """The family with every range at its midpoint (integers rounded down): its mean slope."""
+
     def middle(name: str, value: float | list[float]) -> float:
         if not isinstance(value, list):
             return float(value)
         return float(int(np.mean(value))) if name in INTEGER_PARAMS else float(np.mean(value))
+
     return family | {"params": {name: middle(name, value) for name, value in family["params"].items()}}
 
 

@@ -1,4 +1,5 @@
 """CSV tables written atomically and read back with a clear error naming the file."""
+
 from __future__ import annotations
 
 import os
@@ -51,6 +52,8 @@ def read_chunk(path: str | Path, expected: list[int], columns: list[str] | None 
     table = read_csv(path, columns or ["index"])
     held = sorted(table["index"].tolist())
     if held != list(expected):
-        raise TableError(f"{path}: holds realizations {held}, not {list(expected)} (cut short, or from another "
-                         "montecarlo config); delete it and run again")
+        raise TableError(
+            f"{path}: holds realizations {held}, not {list(expected)} (cut short, or from another "
+            "montecarlo config); delete it and run again"
+        )
     return table

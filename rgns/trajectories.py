@@ -13,13 +13,15 @@ datasets, the same attributes at the root, and ``statistics/`` with per-axis mea
 deviation of velocity and acceleration **in per-frame units** (m/frame, m/frame²): finite
 differences of consecutive frames, never divided by the MPM time step.
 """
+
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Iterator
+from typing import Any
 
 import h5py
 import numpy as np
@@ -111,8 +113,11 @@ def validate_shapes(trajectory: Trajectory) -> list[str]:
 
 
 def _compression(kind: str) -> dict[str, Any]:
-    return {"gzip": {"compression": "gzip", "compression_opts": 1, "shuffle": True},
-            "lzf": {"compression": "lzf", "shuffle": True}, "none": {}}[kind]
+    return {
+        "gzip": {"compression": "gzip", "compression_opts": 1, "shuffle": True},
+        "lzf": {"compression": "lzf", "shuffle": True},
+        "none": {},
+    }[kind]
 
 
 def _write_group(group: h5py.Group, trajectory: Trajectory, compression: str) -> None:
@@ -228,8 +233,9 @@ def motion_statistics(trajectories: Iterable[Trajectory]) -> MotionStatistics:
     return MotionStatistics(*velocity.mean_std(), *acceleration.mean_std())
 
 
-def pack(paths: list[str | Path], out_path: str | Path, set_name: str,
-         compression: str = "gzip") -> tuple[MotionStatistics, list[str]]:
+def pack(
+    paths: list[str | Path], out_path: str | Path, set_name: str, compression: str = "gzip"
+) -> tuple[MotionStatistics, list[str]]:
     """Pack realization files into one set file with motion statistics.
 
     Realizations whose status is not "ok" (diverged runs) are left out and listed in the file's
@@ -283,7 +289,11 @@ def read_statistics(path: str | Path) -> MotionStatistics:
     try:
         with h5py.File(path, "r") as handle:
             group = handle["statistics"]
-            return MotionStatistics(*(group[name][()] for name in
-                                      ("velocity_mean", "velocity_std", "acceleration_mean", "acceleration_std")))
+            return MotionStatistics(
+                *(
+                    group[name][()]
+                    for name in ("velocity_mean", "velocity_std", "acceleration_mean", "acceleration_std")
+                )
+            )
     except (OSError, KeyError) as error:
         raise TrajectoryError(f"{path}: no readable statistics ({error})") from error

@@ -5,6 +5,7 @@ metric in ``METRICS`` the paired values give R², NRMSE and the mean signed erro
 percentile-bootstrap confidence interval over realizations. Rollouts whose ``gns_status`` is not
 ``"ok"`` (diverged) are left out of the statistics but counted.
 """
+
 from __future__ import annotations
 
 import math
@@ -81,8 +82,9 @@ def _nrmse_along(mpm: np.ndarray, gns: np.ndarray, axis: int = -1) -> np.ndarray
 PAIRED_STATISTICS = {"r2": _r2_along, "nrmse": _nrmse_along}
 
 
-def paired_interval(statistic: str, mpm: np.ndarray, gns: np.ndarray, bootstrap: int = 2000,
-                    confidence: float = 0.95, seed: int = 0) -> tuple[float, float]:
+def paired_interval(
+    statistic: str, mpm: np.ndarray, gns: np.ndarray, bootstrap: int = 2000, confidence: float = 0.95, seed: int = 0
+) -> tuple[float, float]:
     """Percentile-bootstrap interval of a paired statistic (``r2`` or ``nrmse``) over realizations,
     resampling (MPM, surrogate) pairs together; resamples where it is undefined are left out. NaN
     with fewer than 3 pairs or the statistic undefined on most resamples."""
@@ -100,8 +102,7 @@ def paired_interval(statistic: str, mpm: np.ndarray, gns: np.ndarray, bootstrap:
     return float(low), float(high)
 
 
-def bootstrap_mean_interval(values: np.ndarray, bootstrap: int, confidence: float,
-                            seed: int) -> tuple[float, float]:
+def bootstrap_mean_interval(values: np.ndarray, bootstrap: int, confidence: float, seed: int) -> tuple[float, float]:
     """Percentile-bootstrap interval of the mean, resampling ``values`` with replacement."""
     values = np.asarray(values, dtype=float)
     if values.size == 0:
@@ -113,8 +114,9 @@ def bootstrap_mean_interval(values: np.ndarray, bootstrap: int, confidence: floa
     return float(low), float(high)
 
 
-def agreement(mpm: np.ndarray, gns: np.ndarray, metric: str, bootstrap: int = 2000,
-              confidence: float = 0.95, seed: int = 0) -> Agreement:
+def agreement(
+    mpm: np.ndarray, gns: np.ndarray, metric: str, bootstrap: int = 2000, confidence: float = 0.95, seed: int = 0
+) -> Agreement:
     """R², NRMSE and bias (with bootstrap CI) of paired GNS predictions against MPM."""
     mpm, gns = np.asarray(mpm, dtype=float), np.asarray(gns, dtype=float)
     if mpm.shape != gns.shape or mpm.ndim != 1:
@@ -125,13 +127,22 @@ def agreement(mpm: np.ndarray, gns: np.ndarray, metric: str, bootstrap: int = 20
     mpm_mean = float(mpm.mean()) if n else math.nan
     low, high = bootstrap_mean_interval(errors, bootstrap, confidence, seed)
     r2 = r_squared(mpm, gns)
-    r2_low, r2_high = paired_interval("r2", mpm, gns, bootstrap, confidence, seed) if math.isfinite(r2) \
-        else (math.nan, math.nan)
+    r2_low, r2_high = (
+        paired_interval("r2", mpm, gns, bootstrap, confidence, seed) if math.isfinite(r2) else (math.nan, math.nan)
+    )
     return Agreement(
-        metric=metric, n=n, r2=r2, r2_low=r2_low, r2_high=r2_high, nrmse=nrmse(mpm, gns),
-        bias=bias, bias_low=low, bias_high=high,
+        metric=metric,
+        n=n,
+        r2=r2,
+        r2_low=r2_low,
+        r2_high=r2_high,
+        nrmse=nrmse(mpm, gns),
+        bias=bias,
+        bias_low=low,
+        bias_high=high,
         relative_bias=bias / mpm_mean if n and mpm_mean != 0.0 else math.nan,
-        mpm_mean=mpm_mean, gns_mean=float(gns.mean()) if n else math.nan,
+        mpm_mean=mpm_mean,
+        gns_mean=float(gns.mean()) if n else math.nan,
     )
 
 
@@ -150,8 +161,9 @@ def spearman(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return float(result.statistic), float(result.pvalue)
 
 
-def case_agreement(pairs: pd.DataFrame, case: str, bootstrap: int = 2000, confidence: float = 0.95,
-                   seed: int = 0) -> tuple[list[Agreement], dict]:
+def case_agreement(
+    pairs: pd.DataFrame, case: str, bootstrap: int = 2000, confidence: float = 0.95, seed: int = 0
+) -> tuple[list[Agreement], dict]:
     """Agreement of every metric over the ok rows of one case, plus divergence and error-vs-runout summary.
 
     The Spearman correlation between MPM runout and final-position MSE tells whether the GNS
@@ -159,13 +171,17 @@ def case_agreement(pairs: pd.DataFrame, case: str, bootstrap: int = 2000, confid
     """
     ok = ok_rows(pairs)
     agreements = [
-        agreement(ok[f"{stem}_mpm"].to_numpy(), ok[f"{stem}_gns"].to_numpy(), metric,
-                  bootstrap, confidence, seed)
+        agreement(ok[f"{stem}_mpm"].to_numpy(), ok[f"{stem}_gns"].to_numpy(), metric, bootstrap, confidence, seed)
         for metric, (stem, _) in METRICS.items()
     ]
     rho, p_value = spearman(ok["runout_m_mpm"].to_numpy(), ok["final_position_mse_m2"].to_numpy())
-    summary = {"case": case, "realizations": len(pairs), "diverged": len(pairs) - len(ok),
-               "spearman_runout_vs_mse": rho, "spearman_p": p_value}
+    summary = {
+        "case": case,
+        "realizations": len(pairs),
+        "diverged": len(pairs) - len(ok),
+        "spearman_runout_vs_mse": rho,
+        "spearman_p": p_value,
+    }
     return agreements, summary
 
 
@@ -201,5 +217,4 @@ def best_median_worst(pairs: pd.DataFrame) -> dict[str, int]:
     if ok.empty:
         raise ValueError("no realization with gns_status 'ok'")
     indices = ok["index"].to_numpy()
-    return {"best": int(indices[0]), "median": int(indices[len(indices) // 2]),
-            "worst": int(indices[-1])}
+    return {"best": int(indices[0]), "median": int(indices[len(indices) // 2]), "worst": int(indices[-1])}

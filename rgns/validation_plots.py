@@ -3,6 +3,7 @@
 Only realizations whose GNS rollout is ok enter the figures, as in the statistics of
 ``rgns.validation``.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -24,8 +25,11 @@ def plot_histograms(pairs_by_case: dict[str, pd.DataFrame], path: str | Path, na
     """Overlaid MPM and learned-simulator (``name``) histograms with common bins: one row per case, one
     column per metric."""
     figure, axes = plt.subplots(
-        len(pairs_by_case), len(METRICS), figsize=(4.0 * len(METRICS), 2.8 * len(pairs_by_case)),
-        squeeze=False, constrained_layout=True,
+        len(pairs_by_case),
+        len(METRICS),
+        figsize=(4.0 * len(METRICS), 2.8 * len(pairs_by_case)),
+        squeeze=False,
+        constrained_layout=True,
     )
     for row, (case, pairs) in zip(axes, pairs_by_case.items()):
         ok = ok_rows(pairs)
@@ -50,8 +54,9 @@ def plot_parity(pairs_by_case: dict[str, pd.DataFrame], path: str | Path, name: 
         for number, (case, pairs) in enumerate(pairs_by_case.items()):
             ok = ok_rows(pairs)
             mpm, gns = ok[f"{stem}_mpm"].to_numpy(float), ok[f"{stem}_gns"].to_numpy(float)
-            axis.scatter(mpm, gns, s=10, color=f"C{number}", alpha=0.7,
-                         label=f"{case} (R² = {r_squared(mpm, gns):.3f})")
+            axis.scatter(
+                mpm, gns, s=10, color=f"C{number}", alpha=0.7, label=f"{case} (R² = {r_squared(mpm, gns):.3f})"
+            )
             if mpm.size:
                 low = min(low, mpm.min(), gns.min())
                 high = max(high, mpm.max(), gns.max())
@@ -65,8 +70,9 @@ def plot_parity(pairs_by_case: dict[str, pd.DataFrame], path: str | Path, name: 
     plt.close(figure)
 
 
-def plot_energy_evolution(energies: dict, picks: dict[str, int], case: str, path: str | Path,
-                          name: str = "GNS") -> None:
+def plot_energy_evolution(
+    energies: dict, picks: dict[str, int], case: str, path: str | Path, name: str = "GNS"
+) -> None:
     """Normalised Ep, Ek, Ed (rows) of the best, median and worst realization (columns): MPM vs the
     learned simulator ``name``: a curve, or only its start and end as points where it has no path
     between (the end-state surrogate: its energies are NaN there).
@@ -74,8 +80,9 @@ def plot_energy_evolution(energies: dict, picks: dict[str, int], case: str, path
     ``energies`` holds ``time_s`` [T], ``index`` [B], ``mpm`` and ``gns`` [B, T, 3]; ``picks``
     maps "best"/"median"/"worst" to a realization ``index``.
     """
-    figure, axes = plt.subplots(3, len(PICK_ORDER), figsize=(12, 8), sharex=True, squeeze=False,
-                                constrained_layout=True)
+    figure, axes = plt.subplots(
+        3, len(PICK_ORDER), figsize=(12, 8), sharex=True, squeeze=False, constrained_layout=True
+    )
     time_s = np.asarray(energies["time_s"])
     for column, pick in enumerate(PICK_ORDER):
         matches = np.flatnonzero(np.asarray(energies["index"]) == picks[pick])

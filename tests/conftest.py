@@ -1,13 +1,14 @@
 """Shared fixtures: the repository's configs, loaded and validated."""
+
 from __future__ import annotations
 
 import copy
 from pathlib import Path
 
 import pytest
+from workflow_helpers import snakemake, write_config
 
 from rgns.config import load_config, load_yaml
-from workflow_helpers import snakemake, write_config
 
 REPO = Path(__file__).resolve().parent.parent
 TINY_CONFIG = REPO / "tests" / "data" / "tiny.yaml"

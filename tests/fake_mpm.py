@@ -5,6 +5,7 @@ and writes ``particles<step>.h5`` tables of the same layout (the fields rgns rea
 particle slides 1 cm per stored frame. ``FAKE_MPM_ABORT=<realization index>`` makes that
 realization abort the way CB-Geo does when a particle leaves the mesh.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -17,8 +18,15 @@ import numpy as np
 
 from rgns.cbgeo.case import read_case
 
-FIELDS = [("id", "<u8"), ("mass", "<f8"), ("volume", "<f8"), ("coord_x", "<f8"), ("coord_y", "<f8"),
-          ("material_id", "<u4"), ("svars_0", "<f8")]
+FIELDS = [
+    ("id", "<u8"),
+    ("mass", "<f8"),
+    ("volume", "<f8"),
+    ("coord_x", "<f8"),
+    ("coord_y", "<f8"),
+    ("material_id", "<u4"),
+    ("svars_0", "<f8"),
+]
 
 
 def main() -> int:
@@ -28,8 +36,10 @@ def main() -> int:
     parser.add_argument("-p", dest="threads", default="1")
     args = parser.parse_args()
     case = read_case(args.directory)
-    print(f"fake mpm: {len(case.positions)} particles, {args.threads} thread(s), "
-          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY', '')}")
+    print(
+        f"fake mpm: {len(case.positions)} particles, {args.threads} thread(s), "
+        f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY', '')}"
+    )
     if os.environ.get("FAKE_MPM_ABORT") == str(case.meta["index"]):
         print("mpm::base::init_particles() Particle outside the mesh domain", flush=True)
         return 134

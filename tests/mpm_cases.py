@@ -1,4 +1,5 @@
 """Build CB-Geo case directories for analytic MPM checks from a polygon and a constant friction."""
+
 from __future__ import annotations
 
 import copy
@@ -16,17 +17,36 @@ DEFAULT_MPM = load_config()["mpm"]
 ELASTIC = {"cohesion_pa": 1e9, "tension_cutoff_pa": 1e9}  # strength so high the soil never yields
 
 
-def polygon_case(directory: Path, vertices, length_m: float, height_m: float, cell_size_m: float = 0.5,
-                 particles_per_cell: int = 2, friction_deg: float = 30.0, index: int = 0, **mpm) -> Case:
+def polygon_case(
+    directory: Path,
+    vertices,
+    length_m: float,
+    height_m: float,
+    cell_size_m: float = 0.5,
+    particles_per_cell: int = 2,
+    friction_deg: float = 30.0,
+    index: int = 0,
+    **mpm,
+) -> Case:
     """Write and read back the case of one polygon of uniform soil; ``mpm`` overrides mpm settings."""
     vertices = np.asarray(vertices, dtype=float)
     settings = copy.deepcopy(DEFAULT_MPM)
     settings.update(mpm)
     positions, volumes = seed_particles(vertices, cell_size_m, particles_per_cell)
-    scene = Scene("test", index, "polygon", vertices, positions, volumes, length_m, height_m, cell_size_m,
-                  particles_per_cell, 1)
+    scene = Scene(
+        "test", index, "polygon", vertices, positions, volumes, length_m, height_m, cell_size_m, particles_per_cell, 1
+    )
     grid = FieldGrid.covering(length_m, height_m, cell_size_m)
-    field = FrictionField(grid, np.full(grid.shape, friction_deg), np.full(len(positions), friction_deg),
-                          friction_deg, 0.0, 1.0, 1.0, "constant", 0.0)
+    field = FrictionField(
+        grid,
+        np.full(grid.shape, friction_deg),
+        np.full(len(positions), friction_deg),
+        friction_deg,
+        0.0,
+        1.0,
+        1.0,
+        "constant",
+        0.0,
+    )
     write_case(directory, scene, field.friction_deg, settings)
     return read_case(directory)

@@ -8,6 +8,7 @@ systemd: the daemons are started by hand, with process tracking by /proc (proctr
 ``/etc/slurm/slurm.conf`` must point at the generated file, because the executor plugin's inner
 ``srun`` ignores ``SLURM_CONF``; an existing file there that is not ours is never replaced.
 """
+
 from __future__ import annotations
 
 import os
@@ -63,8 +64,11 @@ def missing() -> list[str]:
 
 def _node() -> dict:
     """This machine's CPUs and memory as slurmd sees them (``slurmd -C``)."""
-    fields = dict(item.split("=", 1) for item in subprocess.run(
-        ["slurmd", "-C"], capture_output=True, text=True, check=True).stdout.split() if "=" in item)
+    fields = dict(
+        item.split("=", 1)
+        for item in subprocess.run(["slurmd", "-C"], capture_output=True, text=True, check=True).stdout.split()
+        if "=" in item
+    )
     return {"cpus": int(fields["CPUs"]), "memory_mb": int(fields["RealMemory"]) - 1000}
 
 
@@ -96,13 +100,15 @@ def up(base: Path, timeout_s: float = 60.0) -> None:
         if state == "idle":
             return
         time.sleep(0.5)
-    raise RuntimeError(f"the SLURM node did not come up idle in {timeout_s:g} s (sinfo says {state!r}); "
-                       f"see {base / 'log'}")
+    raise RuntimeError(
+        f"the SLURM node did not come up idle in {timeout_s:g} s (sinfo says {state!r}); see {base / 'log'}"
+    )
 
 
 def _running() -> bool:
-    return any(subprocess.run(["pgrep", "-x", name], capture_output=True).returncode == 0
-               for name in ("slurmctld", "slurmd"))
+    return any(
+        subprocess.run(["pgrep", "-x", name], capture_output=True).returncode == 0 for name in ("slurmctld", "slurmd")
+    )
 
 
 def _stop_running(timeout_s: float = 30.0) -> None:

@@ -2,6 +2,7 @@
 
 Point ``RGNS_MPM_BINARY`` at the executable, or put ``mpm`` on PATH.
 """
+
 from __future__ import annotations
 
 import copy
@@ -25,8 +26,16 @@ def test_a_failing_slope_runs_in_cbgeo_and_the_reader_recovers_materials_and_fri
     config = copy.deepcopy(default_config)
     config["mpm"]["duration_s"] = 2.0
     group = dict(config["sets"]["train"][0], friction_mean_deg=20.0)  # weak: the slope fails
-    scene = build_scene("train", 0, "slope", config["geometry"]["families"]["slope"], config["domain"],
-                        config["mesh"], config["geometry"], config["seed"])
+    scene = build_scene(
+        "train",
+        0,
+        "slope",
+        config["geometry"]["families"]["slope"],
+        config["domain"],
+        config["mesh"],
+        config["geometry"],
+        config["seed"],
+    )
     grid = FieldGrid.covering(config["domain"]["length_m"], config["domain"]["height_m"], config["mesh"]["cell_size_m"])
     field = friction_field(config["seed"], "train", 0, group, grid, "kronecker", (5.0, 60.0), scene.positions)
     case_dir = write_case(tmp_path / "case", scene, field.friction_deg, config["mpm"])

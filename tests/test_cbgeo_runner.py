@@ -3,6 +3,7 @@
 These use tests/fake_mpm.py, a stand-in with CB-Geo's command line and output layout, so they
 run everywhere; tests/test_cbgeo_real.py runs the real binary when it is installed.
 """
+
 from __future__ import annotations
 
 import copy
@@ -11,6 +12,8 @@ import shutil
 import h5py
 import numpy as np
 import pytest
+from conftest import TINY_CONFIG
+from workflow_helpers import fake_mpm_binary, snakemake, write_config
 
 from rgns.cbgeo.runner import MPMDiverged, MPMRunError, run_cbgeo, trajectory_from_cbgeo
 from rgns.cbgeo.writer import write_case
@@ -19,8 +22,6 @@ from rgns.engines import simulate_chunk
 from rgns.fields import FieldGrid, friction_field
 from rgns.geometry import build_scene
 from rgns.trajectories import read_packed, read_trajectory
-from conftest import TINY_CONFIG
-from workflow_helpers import fake_mpm_binary, snakemake, write_config
 
 LABEL = "train realization 0001"
 
@@ -29,11 +30,20 @@ LABEL = "train realization 0001"
 def case_dir(tmp_path, default_config):
     config = copy.deepcopy(default_config)
     config["mpm"]["duration_s"] = 0.25
-    scene = build_scene("train", 1, "slope", config["geometry"]["families"]["slope"], config["domain"],
-                        config["mesh"], config["geometry"], config["seed"])
+    scene = build_scene(
+        "train",
+        1,
+        "slope",
+        config["geometry"]["families"]["slope"],
+        config["domain"],
+        config["mesh"],
+        config["geometry"],
+        config["seed"],
+    )
     grid = FieldGrid.covering(config["domain"]["length_m"], config["domain"]["height_m"], 1.0)
-    field = friction_field(config["seed"], "train", 1, config["sets"]["train"][0], grid, "kronecker", (5.0, 60.0),
-                           scene.positions)
+    field = friction_field(
+        config["seed"], "train", 1, config["sets"]["train"][0], grid, "kronecker", (5.0, 60.0), scene.positions
+    )
     return write_case(tmp_path / "case", scene, field.friction_deg, config["mpm"]), config
 
 
@@ -52,7 +62,9 @@ def test_a_missing_binary_is_reported_naming_the_realization(case_dir, tmp_path)
 def test_an_aborted_run_is_reported_with_the_reason_and_its_log(case_dir, tmp_path, monkeypatch):
     case, _ = case_dir
     monkeypatch.setenv("FAKE_MPM_ABORT", "1")
-    with pytest.raises(MPMDiverged, match=r"train realization 0001: CB-Geo mpm exited with status 134: a particle left the mesh"):
+    with pytest.raises(
+        MPMDiverged, match=r"train realization 0001: CB-Geo mpm exited with status 134: a particle left the mesh"
+    ):
         run_cbgeo(case, tmp_path / "scratch", tmp_path / "run.log", _options(fake_mpm_binary(tmp_path)), LABEL)
     assert "Particle outside the mesh" in (tmp_path / "run.log").read_text()
 
@@ -64,7 +76,9 @@ def test_a_finished_run_converts_sorting_particles_by_id(case_dir, tmp_path):
     frames = round(config["mpm"]["duration_s"] / config["mpm"]["frame_interval_s"])
     assert trajectory.positions.shape == (frames, len(loaded.positions), 2)
     np.testing.assert_allclose(trajectory.positions[0], loaded.positions, atol=1e-5)  # the fake writes ids reversed
-    np.testing.assert_allclose(trajectory.positions[-1, :, 0] - trajectory.positions[0, :, 0], 0.01 * (frames - 1), rtol=1e-4)
+    np.testing.assert_allclose(
+        trajectory.positions[-1, :, 0] - trajectory.positions[0, :, 0], 0.01 * (frames - 1), rtol=1e-4
+    )
     np.testing.assert_allclose(np.diff(trajectory.time_s), config["mpm"]["frame_interval_s"])
 
 
@@ -90,7 +104,9 @@ def test_non_finite_output_is_reported_as_divergence(case_dir, tmp_path):
 
 
 @pytest.mark.parametrize("threads, policy", [(1, ""), (2, "passive")])
-def test_threads_are_passed_and_omp_waits_passively_with_more_than_one(case_dir, tmp_path, threads, policy, monkeypatch):
+def test_threads_are_passed_and_omp_waits_passively_with_more_than_one(
+    case_dir, tmp_path, threads, policy, monkeypatch
+):
     case, _ = case_dir
     monkeypatch.delenv("OMP_WAIT_POLICY", raising=False)
     run_cbgeo(case, tmp_path / "scratch", tmp_path / "log", _options(fake_mpm_binary(tmp_path), threads=threads), LABEL)

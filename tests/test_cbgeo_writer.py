@@ -1,4 +1,5 @@
 """The CB-Geo case writer, checked file by file against the facts of CB-Geo's formats."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -7,20 +8,41 @@ import json
 import numpy as np
 import pytest
 import torch
+from conftest import TINY_CONFIG
 
 from rgns.cbgeo.case import read_case, read_mesh
-from rgns.cbgeo.writer import (FLOOR, GENERATOR_PSET, LEFT_WALL, PAD_CELLS, RIGHT_WALL, bin_friction, case_from_scene,
-                               save_case, write_case)
+from rgns.cbgeo.writer import (
+    FLOOR,
+    GENERATOR_PSET,
+    LEFT_WALL,
+    PAD_CELLS,
+    RIGHT_WALL,
+    bin_friction,
+    case_from_scene,
+    save_case,
+    write_case,
+)
 from rgns.config import ConfigError, load_config, validate_config
 from rgns.fields import FieldGrid, friction_field
 from rgns.geometry import build_scene, signed_area
 from rgns.mpm.solver import EngineSettings, run_batch
 from rgns.realizations import CaseInputs, draw_realization
-from conftest import TINY_CONFIG
 
 MOHR_COULOMB_KEYS = {
-    "id", "type", "density", "youngs_modulus", "poisson_ratio", "friction", "dilation", "residual_friction",
-    "residual_dilation", "cohesion", "residual_cohesion", "tension_cutoff", "peak_pdstrain", "residual_pdstrain",
+    "id",
+    "type",
+    "density",
+    "youngs_modulus",
+    "poisson_ratio",
+    "friction",
+    "dilation",
+    "residual_friction",
+    "residual_dilation",
+    "cohesion",
+    "residual_cohesion",
+    "tension_cutoff",
+    "peak_pdstrain",
+    "residual_pdstrain",
     "softening",
 }
 
@@ -29,11 +51,27 @@ MOHR_COULOMB_KEYS = {
 def written(tmp_path_factory, default_config):
     """A case for realization 2 of the default training slopes, written once."""
     config = default_config
-    scene = build_scene("train", 2, "slope", config["geometry"]["families"]["slope"], config["domain"],
-                        config["mesh"], config["geometry"], config["seed"])
+    scene = build_scene(
+        "train",
+        2,
+        "slope",
+        config["geometry"]["families"]["slope"],
+        config["domain"],
+        config["mesh"],
+        config["geometry"],
+        config["seed"],
+    )
     grid = FieldGrid.covering(config["domain"]["length_m"], config["domain"]["height_m"], config["mesh"]["cell_size_m"])
-    field = friction_field(config["seed"], "train", 2, config["sets"]["train"][0], grid, "kronecker",
-                           tuple(config["random_field"]["friction_bounds_deg"]), scene.positions)
+    field = friction_field(
+        config["seed"],
+        "train",
+        2,
+        config["sets"]["train"][0],
+        grid,
+        "kronecker",
+        tuple(config["random_field"]["friction_bounds_deg"]),
+        scene.positions,
+    )
     directory = write_case(tmp_path_factory.mktemp("case") / "case", scene, field.friction_deg, config["mpm"])
     return directory, scene, field, config
 
@@ -88,7 +126,9 @@ def test_entity_sets_walls_floor_and_friction_bins(written):
     case = read_case(directory)
     nodes = case.nodes
     np.testing.assert_array_equal(case.node_sets[LEFT_WALL], np.flatnonzero(np.isclose(nodes[:, 0], 0.0)))
-    np.testing.assert_array_equal(case.node_sets[RIGHT_WALL], np.flatnonzero(np.isclose(nodes[:, 0], scene.domain_length_m)))
+    np.testing.assert_array_equal(
+        case.node_sets[RIGHT_WALL], np.flatnonzero(np.isclose(nodes[:, 0], scene.domain_length_m))
+    )
     np.testing.assert_array_equal(case.node_sets[FLOOR], np.flatnonzero(np.isclose(nodes[:, 1], 0.0)))
     assert GENERATOR_PSET not in case.particle_sets  # a colliding id would be silently dropped
     members = np.concatenate(list(case.particle_sets.values()))
@@ -178,8 +218,9 @@ def test_a_realization_run_from_memory_and_from_its_written_directory_gives_iden
     in_memory = case_from_scene(realization.scene, realization.friction_deg, config["mpm"])
     from_disk = read_case(write_case(tmp_path / "case", realization.scene, realization.friction_deg, config["mpm"]))
     settings = EngineSettings(shape_function="linear")
-    first, second = (run_batch([case], settings, 0.5, config["mpm"]["frame_interval_s"])[0]
-                     for case in (in_memory, from_disk))
+    first, second = (
+        run_batch([case], settings, 0.5, config["mpm"]["frame_interval_s"])[0] for case in (in_memory, from_disk)
+    )
     assert first.status == second.status == "ok" and first.positions.shape == (21, len(in_memory.positions), 2)
     assert np.abs(first.positions[-1] - first.positions[0]).max() > 0.05  # it did move
     assert np.array_equal(first.positions, second.positions)

@@ -1,13 +1,14 @@
 """Config validation: good configs pass with defaults filled; bad ones name the key and value."""
+
 from __future__ import annotations
 
 import copy
 
 import pytest
+from conftest import REPO
 
 from rgns.config import ConfigError, load_yaml, validate_config
 from rgns.sets import realization_group, set_size
-from conftest import REPO
 
 
 def test_default_and_paper_configs_validate(default_config, paper_config):
@@ -53,30 +54,79 @@ BAD = [
     (("sets", "case1", 0, "friction_std_deg"), -2.0, r"'sets.case1\[0\].friction_std_deg' = -2.0"),
     (("sets", "case4", 0, "friction_mean_deg"), 95.0, r"'sets.case4\[0\].friction_mean_deg' = 95.0"),
     (("sets", "case4", 0, "friction_mean_deg"), 0.0, r"'sets.case4\[0\].friction_mean_deg' = 0.0"),
-    (("sets", "train", 1, "friction_mean_deg"), [10.0, 95.0], r"'sets.train\[1\].friction_mean_deg' = \[10.0, 95.0\]: 95.0 is greater than or equal to the maximum of 90"),
-    (("sets", "train", 1, "friction_mean_deg"), [35.0, 20.0], r"'sets.train\[1\].friction_mean_deg' = \[35.0, 20.0\]: min 35.0 > max 20.0"),
-    (("geometry", "families", "slope", "vertices", 1, "x_m"), [30.0, 24.0], r"'geometry.families.slope.vertices\[1\].x_m' = \[30.0, 24.0\]: min 30.0 > max 24.0"),
-    (("geometry", "families", "slope", "vertices", 1, "x_m"), [28.0, 95.0], r"'geometry.families.slope.vertices\[1\].x_m' = \[28.0, 95.0\]: outside the domain"),
-    (("geometry", "families", "column", "vertices", 2, "y_m"), 25.0, r"'geometry.families.column.vertices\[2\].y_m' = 25.0: outside the domain"),
-    (("geometry", "families", "column", "vertices", 1, "x_m"), -3.0, r"'geometry.families.column.vertices\[1\].x_m' = -3.0: outside the domain"),
+    (
+        ("sets", "train", 1, "friction_mean_deg"),
+        [10.0, 95.0],
+        r"'sets.train\[1\].friction_mean_deg' = \[10.0, 95.0\]: 95.0 is greater than or equal to the maximum of 90",
+    ),
+    (
+        ("sets", "train", 1, "friction_mean_deg"),
+        [35.0, 20.0],
+        r"'sets.train\[1\].friction_mean_deg' = \[35.0, 20.0\]: min 35.0 > max 20.0",
+    ),
+    (
+        ("geometry", "families", "slope", "vertices", 1, "x_m"),
+        [30.0, 24.0],
+        r"'geometry.families.slope.vertices\[1\].x_m' = \[30.0, 24.0\]: min 30.0 > max 24.0",
+    ),
+    (
+        ("geometry", "families", "slope", "vertices", 1, "x_m"),
+        [28.0, 95.0],
+        r"'geometry.families.slope.vertices\[1\].x_m' = \[28.0, 95.0\]: outside the domain",
+    ),
+    (
+        ("geometry", "families", "column", "vertices", 2, "y_m"),
+        25.0,
+        r"'geometry.families.column.vertices\[2\].y_m' = 25.0: outside the domain",
+    ),
+    (
+        ("geometry", "families", "column", "vertices", 1, "x_m"),
+        -3.0,
+        r"'geometry.families.column.vertices\[1\].x_m' = -3.0: outside the domain",
+    ),
     (("sets", "case3", 0, "family"), "cliff", r"'sets.case3\[0\].family' = 'cliff': no such family"),
     (("sets", "case3", 0, "count"), 0, r"'sets.case3\[0\].count' = 0"),
     (("domain", "length_m"), 80.5, r"'domain.length_m' = 80.5: not a whole number of cells"),
     (("mesh", "cell_size_m"), "2 m", r"'mesh.cell_size_m' = '2 m': '2 m' is not of type 'number'"),
     (("random_field", "method"), "fft", r"'random_field.method' = 'fft'"),
-    (("random_field", "friction_bounds_deg"), [40.0, 10.0], r"'random_field.friction_bounds_deg' = \[40.0, 10.0\]: min 40.0 > max 10.0"),
+    (
+        ("random_field", "friction_bounds_deg"),
+        [40.0, 10.0],
+        r"'random_field.friction_bounds_deg' = \[40.0, 10.0\]: min 40.0 > max 10.0",
+    ),
     (("geometry", "runout_room_m"), 60.0, r"'geometry.families.slope.vertices'.*right wall"),
     (("montecarlo", "cases"), ["case9"], r"'montecarlo.cases\[0\]' = 'case9': not a test-case set"),
     (("montecarlo", "cases"), ["train"], r"'montecarlo.cases\[0\]' = 'train': not a test-case set"),
     (("montecarlo", "simulator"), "fem", r"'montecarlo.simulator' = 'fem'"),
     (("montecarlo", "realizations"), 1, r"'montecarlo.realizations' = 1"),
     (("montecarlo", "chunk_size"), 10, r"'montecarlo.chunk_size' = 10: not a multiple of montecarlo.batch_size = 4"),
-    (("montecarlo", "fidelity", "paired"), 1, r"'montecarlo.fidelity.paired' = 1: 0 \(off\) or between 2 and montecarlo.realizations = 256"),
+    (
+        ("montecarlo", "fidelity", "paired"),
+        1,
+        r"'montecarlo.fidelity.paired' = 1: 0 \(off\) or between 2 and montecarlo.realizations = 256",
+    ),
     (("montecarlo", "fidelity", "paired"), 257, r"'montecarlo.fidelity.paired' = 257: 0 \(off\) or between 2"),
-    (("montecarlo", "fidelity", "high_cell_size_m"), 1.0, r"'montecarlo.fidelity.high_cell_size_m' = 1.0: must be finer than mesh.cell_size_m = 1.0"),
-    (("montecarlo", "cases"), ["case1", "case2"], r"'montecarlo.fidelity.cheap' = 'tuned': the shipped tuned end-state surrogate does not serve this config: montecarlo.cases has case2, it was tuned on case1 \(set endstate.tuned.model: train"),
-    (("montecarlo", "fidelity", "high_cell_size_m"), 0.25, r"'montecarlo.fidelity.cheap' = 'tuned': .*montecarlo.fidelity.high_cell_size_m is 0.25, the model was trained at 0.5"),
-    (("hazard", "zoning_thresholds"), [0.9, 0.1, 0.5, 0.01], r"'hazard.zoning_thresholds' = \[0.9, 0.1, 0.5, 0.01\]: must be strictly decreasing"),
+    (
+        ("montecarlo", "fidelity", "high_cell_size_m"),
+        1.0,
+        r"'montecarlo.fidelity.high_cell_size_m' = 1.0: must be finer than mesh.cell_size_m = 1.0",
+    ),
+    (
+        ("montecarlo", "cases"),
+        ["case1", "case2"],
+        r"'montecarlo.fidelity.cheap' = 'tuned': the shipped tuned end-state surrogate does not serve this config: "
+        r"montecarlo.cases has case2, it was tuned on case1 \(set endstate.tuned.model: train",
+    ),
+    (
+        ("montecarlo", "fidelity", "high_cell_size_m"),
+        0.25,
+        r"'montecarlo.fidelity.cheap' = 'tuned': .*montecarlo.fidelity.high_cell_size_m is 0.25, the model was trained at 0.5",
+    ),
+    (
+        ("hazard", "zoning_thresholds"),
+        [0.9, 0.1, 0.5, 0.01],
+        r"'hazard.zoning_thresholds' = \[0.9, 0.1, 0.5, 0.01\]: must be strictly decreasing",
+    ),
     (("hazard", "zoning_thresholds"), [0.9, 0.5, 0.1], r"'hazard.zoning_thresholds' = \[0.9, 0.5, 0.1\]"),
     (("metrics", "runout_percentile"), 120.0, r"'metrics.runout_percentile' = 120.0"),
 ]
@@ -98,7 +148,7 @@ def test_a_clockwise_family_fails_naming_the_family(raw_default_config):
 
 def test_a_config_that_trains_without_a_training_set_fails(raw_default_config):
     del raw_default_config["sets"]["train"]
-    validate_config(copy.deepcopy(raw_default_config))   # the shipped model needs no training set
+    validate_config(copy.deepcopy(raw_default_config))  # the shipped model needs no training set
     raw_default_config["gns"] = {"model": "train"}
     with pytest.raises(ConfigError, match=r"'sets': no train set, which gns.model = 'train' trains on"):
         validate_config(raw_default_config)
@@ -148,15 +198,21 @@ def test_numbers_given_as_text_by_a_nested_config_override_are_read_as_numbers(r
 def test_a_misspelled_key_gets_the_nearest_valid_name(raw_default_config):
     config = copy.deepcopy(raw_default_config)
     config["montecarlo"]["realizatons"] = 320
-    with pytest.raises(ConfigError, match=r"'realizatons' was unexpected\); did you mean 'realizations' for "
-                                          r"'realizatons'\?"):
+    with pytest.raises(
+        ConfigError,
+        match=r"'realizatons' was unexpected\); did you mean 'realizations' for "
+        r"'realizatons'\?",
+    ):
         validate_config(config)
 
 
 def test_a_missing_config_file_is_one_line(tmp_path, capsys):
     from rgns.cli import main
+
     with pytest.raises(ConfigError, match=r"nonexistent.yaml: cannot read the config file \(No such file"):
         load_yaml(tmp_path / "nonexistent.yaml")
     assert main(["check-config", str(tmp_path / "nonexistent.yaml")]) == 1
-    assert capsys.readouterr().err == f"{tmp_path / 'nonexistent.yaml'}: cannot read the config file (No such file " \
-                                      "or directory)\n"
+    assert (
+        capsys.readouterr().err == f"{tmp_path / 'nonexistent.yaml'}: cannot read the config file (No such file "
+        "or directory)\n"
+    )

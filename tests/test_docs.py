@@ -1,11 +1,13 @@
 """The docs match the code: the README's commands, CI, and the generated config reference."""
+
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
-from rgns.config_reference import config_reference
 from conftest import REPO
+
+from rgns.config_reference import config_reference
 
 
 def _ci_command() -> str:
@@ -32,8 +34,18 @@ def test_the_config_reference_is_current():
 def test_every_rule_in_the_readme_data_flow_exists():
     rules = "".join(path.read_text() for path in (REPO / "rules").glob("*.smk")) + (REPO / "Snakefile").read_text()
     readme = (REPO / "README.md").read_text()
-    for rule in ("geometry", "random_field", "scene_preview", "mpm_input", "mpm_run", "pack", "gns_export",
-                 "paraview_series", "train", "hazard_map"):
+    for rule in (
+        "geometry",
+        "random_field",
+        "scene_preview",
+        "mpm_input",
+        "mpm_run",
+        "pack",
+        "gns_export",
+        "paraview_series",
+        "train",
+        "hazard_map",
+    ):
         assert f"rule {rule}:" in rules and f"`{rule}`" in readme
 
 

@@ -1,5 +1,6 @@
 """The end-state surrogate's parts: the lattice, learning a known rule, exact resume, files, the
 Monte Carlo and validation routes (the shipped model's accuracy: tests/test_endstate_shipped.py)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -57,8 +58,9 @@ def test_lattice_round_trip_and_refusals():
 def test_learns_a_rule_that_needs_the_whole_slope(tmp_path):
     """Held-out loss far below the mean predictor's, and the slide of held-out slopes recovered."""
     torch.manual_seed(0)
-    settings = EndStateTrainSettings(widths=(8, 16, 32), steps=300, batch_size=8, learning_rate=3e-3,
-                                     checkpoint_every=300, threads=1)
+    settings = EndStateTrainSettings(
+        widths=(8, 16, 32), steps=300, batch_size=8, learning_rate=3e-3, checkpoint_every=300, threads=1
+    )
     held = synthetic_states(24, seed=2)
     model, history = train(synthetic_states(96, seed=1), held, LATTICE, settings, tmp_path)
     assert history[-1]["valid_loss"] < 0.05 * history[-1]["valid_mean_predictor_loss"]
@@ -126,7 +128,7 @@ def test_normalization_and_mean_predictor(tmp_path):
     normalization = normalization_of(states)
     assert 25.0 < normalization.friction_center_deg < 35.0
     moved = np.concatenate([np.linalg.norm(s.final - s.initial, axis=1) for s in states])
-    assert normalization.displacement_scale_m == pytest.approx(np.sqrt(np.mean(moved ** 2)))
+    assert normalization.displacement_scale_m == pytest.approx(np.sqrt(np.mean(moved**2)))
     settings = EndStateTrainSettings(widths=(4, 8), steps=1, batch_size=2, checkpoint_every=1, threads=1)
     model, _ = train(states, states, LATTICE, settings, tmp_path)
     batch = examples(model, states)
@@ -147,8 +149,11 @@ def sliding_model(slide_m: float) -> EndStateModel:
 def test_monte_carlo_route_measures_the_predicted_end_state(default_config):
     """A rigid slide of d = 2 m: R = d exactly, V = the whole slope, I from the crest to the wall,
     kinetic energy 0 at the end, and the status and simulator recorded."""
-    params = {"montecarlo": default_config["montecarlo"] | {"simulator": "endstate", "batch_size": 2},
-              "mpm": default_config["mpm"], "metrics": default_config["metrics"]}
+    params = {
+        "montecarlo": default_config["montecarlo"] | {"simulator": "endstate", "batch_size": 2},
+        "mpm": default_config["mpm"],
+        "metrics": default_config["metrics"],
+    }
     inputs = CaseInputs.from_config(default_config, "case1")
     table = run_realizations(inputs, [0, 1], RunSettings.from_params(params), sliding_model(2.0))
     scene = draw_realization(inputs, 0).scene
@@ -165,15 +170,35 @@ def test_validation_pairs_the_end_state_with_the_mpm_run():
     """The MPM trajectory moved by 2 m at its end and a model that slides 2 m agree exactly; the
     surrogate's energies exist at the start and the end only."""
     model = sliding_model(2.0)
-    scene = Scene("case1", 0, "long_slope", np.array([[0.0, 0.0], [36.0, 0.0], [24.0, 10.0], [0.0, 10.0]]),
-                  *seed_particles(np.array([[0.0, 0.0], [36.0, 0.0], [24.0, 10.0], [0.0, 10.0]]), 1.0, 2),
-                  80.0, 20.0, 1.0, 2, draws=0)
+    scene = Scene(
+        "case1",
+        0,
+        "long_slope",
+        np.array([[0.0, 0.0], [36.0, 0.0], [24.0, 10.0], [0.0, 10.0]]),
+        *seed_particles(np.array([[0.0, 0.0], [36.0, 0.0], [24.0, 10.0], [0.0, 10.0]]), 1.0, 2),
+        80.0,
+        20.0,
+        1.0,
+        2,
+        draws=0,
+    )
     n = len(scene.positions)
-    frames = np.stack([scene.positions, scene.positions + [1.0, 0.0], scene.positions + [2.0, 0.0],
-                       scene.positions + [2.0, 0.0]])
-    trajectory = Trajectory(frames, np.arange(4) * 0.025, np.full(n, 6), np.full(n, 30.0), scene.volumes,
-                            scene.volumes * 1800.0, 0.025, np.array([[0.0, 80.0], [0.0, 20.0]]), "embedded",
-                            "case1", 0)
+    frames = np.stack(
+        [scene.positions, scene.positions + [1.0, 0.0], scene.positions + [2.0, 0.0], scene.positions + [2.0, 0.0]]
+    )
+    trajectory = Trajectory(
+        frames,
+        np.arange(4) * 0.025,
+        np.full(n, 6),
+        np.full(n, 30.0),
+        scene.volumes,
+        scene.volumes * 1800.0,
+        0.025,
+        np.array([[0.0, 80.0], [0.0, 20.0]]),
+        "embedded",
+        "case1",
+        0,
+    )
     paired = pair_end_states(model, [trajectory], {0: scene}, MetricSettings(1.0, 99.0), 9.81)
     row = paired.pairs.iloc[0]
     for key in ("runout_m", "volume_m2", "influence_m"):
@@ -197,8 +222,10 @@ def test_a_body_feature_model_answers_the_same_for_a_slope_in_two_domain_sizes()
         check_serves(served, {"domain": {"length_m": length, "height_m": height}})
     finals = [model.predict([initial], [friction])[0] for _ in range(2)]
     np.testing.assert_array_equal(finals[0], finals[1])
-    sized = [EndStateModel(Lattice.for_domain(length, height, 1.0, 2, "domain"), norm, (4, 8, 8)).eval()
-             for length, height in ((80.0, 20.0), (46.0, 12.0))]
+    sized = [
+        EndStateModel(Lattice.for_domain(length, height, 1.0, 2, "domain"), norm, (4, 8, 8)).eval()
+        for length, height in ((80.0, 20.0), (46.0, 12.0))
+    ]
     for other in sized[1:]:
         other.load_state_dict(sized[0].state_dict())
     domain_finals = [m.predict([initial], [friction])[0] for m in sized]
@@ -224,8 +251,9 @@ def test_threshold_term_pushes_points_across_the_threshold_the_metrics_count():
     (1.2 m) a prediction short of it (0.9 m) costs more than one past it (1.1 m) and its gradient
     lengthens it; the reverse for a point that stayed (0.5 m)."""
     assert training.ThresholdTerm.of(EndStateTrainSettings(), 2.0) is None
-    term = training.ThresholdTerm.of(EndStateTrainSettings(threshold_weight=1.0, threshold_m=1.0,
-                                                           threshold_width_m=0.1), 2.0)
+    term = training.ThresholdTerm.of(
+        EndStateTrainSettings(threshold_weight=1.0, threshold_m=1.0, threshold_width_m=0.1), 2.0
+    )
     assert term.threshold == 0.5 and term.width == 0.05
     mask = torch.ones(1, 1, 1, 1)
 

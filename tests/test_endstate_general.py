@@ -1,5 +1,6 @@
 """The geometry-general end-state surrogate (endstate.model: general): what its card serves and
 refuses, and its agreement with fresh MPM runs of slopes it never trained on, evaluated here."""
+
 from __future__ import annotations
 
 import copy
@@ -7,6 +8,7 @@ import copy
 import numpy as np
 import pytest
 import torch
+from conftest import REPO
 
 from rgns.config import load_config
 from rgns.endstate.card import check_serves, outside_ranges
@@ -15,7 +17,6 @@ from rgns.montecarlo import RunSettings, run_realizations
 from rgns.realizations import CaseInputs
 from rgns.shipped import MODELS, ShippedModelError, read_card
 from rgns.validation import r_squared
-from conftest import REPO
 
 DEFAULT = load_config(REPO / "config" / "config.yaml")
 SITE = load_config(REPO / "config" / "site.yaml")
@@ -43,8 +44,11 @@ def test_it_serves_any_domain_up_to_its_bounds_and_refuses_what_it_never_learned
         check_serves(CARD, paper)
     coarse = copy.deepcopy(DEFAULT)
     coarse["mesh"]["cell_size_m"], coarse["mpm"]["gravity_m_s2"] = 2.0, 3.7
-    with pytest.raises(ShippedModelError, match=r"mesh.cell_size_m is 2.0, the model was trained at 1.0; "
-                                                r"mpm.gravity_m_s2 is 3.7, the model was trained at 9.81"):
+    with pytest.raises(
+        ShippedModelError,
+        match=r"mesh.cell_size_m is 2.0, the model was trained at 1.0; "
+        r"mpm.gravity_m_s2 is 3.7, the model was trained at 9.81",
+    ):
         check_serves(CARD, coarse)
 
 
@@ -59,7 +63,8 @@ def test_a_case_outside_the_training_ranges_is_named_for_the_gate():
         "config key 'sets.case1[0].friction_std_deg' = 9.0 is outside the end-state surrogate's training range "
         "[2.5, 6]: its validation gate decides",
         "config key 'sets.case1[0].correlation_length_y_m' = 0.5 is outside the end-state surrogate's training "
-        "range [2, 10]: its validation gate decides"]
+        "range [2, 10]: its validation gate decides",
+    ]
 
 
 @pytest.mark.parametrize("config, case", [(SITE, "hillside"), (PRETRAIN, "ood_bench")])
@@ -75,8 +80,13 @@ def test_it_agrees_with_fresh_mpm_runs_of_slopes_it_never_trained_on(general, co
     mpm = run_realizations(inputs, indices, _settings(config, "mpm"))
     model = run_realizations(inputs, indices, _settings(config, "endstate"), general)
     truth, predicted = mpm["runout_m"].to_numpy(float), model["runout_m"].to_numpy(float)
-    print(case, r_squared(truth, predicted), predicted.mean() / truth.mean() - 1,
-          model["volume_m2"].mean() / mpm["volume_m2"].mean() - 1, model["influence_m"].mean() / mpm["influence_m"].mean() - 1)
+    print(
+        case,
+        r_squared(truth, predicted),
+        predicted.mean() / truth.mean() - 1,
+        model["volume_m2"].mean() / mpm["volume_m2"].mean() - 1,
+        model["influence_m"].mean() / mpm["influence_m"].mean() - 1,
+    )
     assert r_squared(truth, predicted) >= 0.85
     assert abs(predicted.mean() / truth.mean() - 1) <= 0.05
     assert abs(model["volume_m2"].mean() / mpm["volume_m2"].mean() - 1) <= 0.10

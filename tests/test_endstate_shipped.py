@@ -1,5 +1,6 @@
 """The end-state surrogate shipped with the package: it serves the default config, agrees with fresh
 MPM runs of case 1 it never saw, keeps standing slopes standing, and gives the same table on every run."""
+
 from __future__ import annotations
 
 import copy
@@ -7,6 +8,7 @@ import copy
 import numpy as np
 import pytest
 import torch
+from conftest import REPO
 
 from rgns.config import load_config
 from rgns.endstate.card import check_serves
@@ -15,7 +17,6 @@ from rgns.montecarlo import RunSettings, run_realizations
 from rgns.realizations import CaseInputs, Realization, draw_realization
 from rgns.shipped import MODELS, ShippedModelError, read_card
 from rgns.validation import r_squared
-from conftest import REPO
 
 DEFAULT = load_config(REPO / "config" / "config.yaml")
 METRICS = ("runout_m", "volume_m2", "influence_m")

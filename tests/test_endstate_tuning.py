@@ -1,6 +1,7 @@
 """Tuning the end-state surrogate to the accurate MPM: coarse-graining the fine runs, the fine-tune,
 and what the shipped tuned model serves (its accuracy as a control variate:
 benchmarks/hifi_surrogate.py and every run's multi-fidelity report)."""
+
 from __future__ import annotations
 
 import copy
@@ -9,6 +10,7 @@ from collections import defaultdict
 import numpy as np
 import pytest
 import torch
+from test_endstate import LATTICE, SLOPE, synthetic_states
 
 from rgns.endstate.model import EndStateModel, load_model
 from rgns.endstate.train import examples, held_out_loss, normalization_of
@@ -16,7 +18,6 @@ from rgns.endstate.tuned_card import check_tuned_serves
 from rgns.endstate.tuning import TuneSettings, coarse_grained, fine_tune
 from rgns.geometry import seed_particles
 from rgns.shipped import MODELS, ShippedModelError, read_card
-from test_endstate import LATTICE, SLOPE, synthetic_states
 
 
 def fine_points(coarse: np.ndarray, spacing: float) -> np.ndarray:
@@ -71,8 +72,9 @@ def tuned_card() -> dict:
     return read_card(MODELS, "endstate_tuned_card.json")
 
 
-def test_the_shipped_tuned_model_serves_the_default_config_and_refuses_other_cases_and_meshes(tuned_card,
-                                                                                                default_config):
+def test_the_shipped_tuned_model_serves_the_default_config_and_refuses_other_cases_and_meshes(
+    tuned_card, default_config
+):
     check_tuned_serves(tuned_card, default_config)
     other = copy.deepcopy(default_config)
     other["montecarlo"]["cases"] = ["case1", "case2"]
@@ -80,8 +82,9 @@ def test_the_shipped_tuned_model_serves_the_default_config_and_refuses_other_cas
         check_tuned_serves(tuned_card, other)
     other = copy.deepcopy(default_config)
     other["montecarlo"]["fidelity"]["high_cell_size_m"] = 0.25
-    with pytest.raises(ShippedModelError, match="montecarlo.fidelity.high_cell_size_m is 0.25, the model was "
-                                                "trained at 0.5"):
+    with pytest.raises(
+        ShippedModelError, match="montecarlo.fidelity.high_cell_size_m is 0.25, the model was trained at 0.5"
+    ):
         check_tuned_serves(tuned_card, other)
     other = copy.deepcopy(default_config)
     other["sets"]["case1"][0]["friction_std_deg"] = 8.0

@@ -1,5 +1,6 @@
 """Faults on the real tiny workflow: killed jobs, files broken between runs. Nothing already
 computed may be lost, and a rerun redoes only what is missing."""
+
 from __future__ import annotations
 
 import copy
@@ -13,7 +14,6 @@ from pathlib import Path
 
 import pytest
 import torch
-
 from workflow_helpers import scheduled, snakemake, snakemake_command, write_config
 
 pytestmark = pytest.mark.workflow
@@ -29,16 +29,24 @@ def copied(built, tmp_path):
 
 def fingerprints(root: Path, *patterns: str) -> dict[str, tuple[str, int]]:
     """Checksum and modification time of every file matching the patterns under ``root``."""
-    return {str(path.relative_to(root)): (hashlib.sha256(path.read_bytes()).hexdigest(), path.stat().st_mtime_ns)
-            for pattern in patterns for path in sorted(root.glob(pattern)) if path.is_file()}
+    return {
+        str(path.relative_to(root)): (hashlib.sha256(path.read_bytes()).hexdigest(), path.stat().st_mtime_ns)
+        for pattern in patterns
+        for path in sorted(root.glob(pattern))
+        if path.is_file()
+    }
 
 
 def start(workdir: Path, *args: str, config: Path, log: Path) -> subprocess.Popen:
     """snakemake in the background, output to ``log``, in its own process group so it can be
     killed with its jobs."""
     with open(log, "w") as out:
-        return subprocess.Popen(snakemake_command(workdir, *args, config=config), stdout=out, stderr=subprocess.STDOUT,
-                                start_new_session=True)
+        return subprocess.Popen(
+            snakemake_command(workdir, *args, config=config),
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
 
 
 def kill_when(process: subprocess.Popen, ready, workdir: Path, config: Path, timeout_s: float = 300) -> None:
@@ -75,7 +83,9 @@ def test_a_killed_training_job_resumes_from_its_checkpoint_on_rerun(copied):
     kill_when(run, checkpointed, workdir, path)
     saved = torch.load(latest, weights_only=False)["step"]
     assert not (workdir / "results" / "model" / "gns.pt").exists()
-    assert scheduled(snakemake(workdir, "-n", "--rerun-incomplete", "results/model/gns.pt", config=path)) == {"train": 1}
+    assert scheduled(snakemake(workdir, "-n", "--rerun-incomplete", "results/model/gns.pt", config=path)) == {
+        "train": 1
+    }
     result = snakemake(workdir, "--cores", "2", "--rerun-incomplete", "results/model/gns.pt", config=path)
     assert result.returncode == 0, result.stderr
     log = (workdir / "logs" / "train" / "train.log").read_text()
@@ -111,7 +121,7 @@ def truncate(path: Path) -> None:
 
 def garble(path: Path) -> None:
     data = bytearray(path.read_bytes())
-    data[len(data) // 3: len(data) // 3 + 64] = b"\x00garbled by a bad copy\x00".ljust(64, b"#")
+    data[len(data) // 3 : len(data) // 3 + 64] = b"\x00garbled by a bad copy\x00".ljust(64, b"#")
     path.write_bytes(bytes(data))
 
 
@@ -120,17 +130,26 @@ def cut_a_row(path: Path) -> None:
     path.write_text(text[: text.rindex("\n", 0, len(text) - 1) + 1])
 
 
-FINAL_TABLES = ("results/mc/case1/realizations.csv", "results/mc/case1/paired.csv", "results/validation/case1/pairs.csv",
-                "results/report/validation/table.csv", "results/report/validation/gate.json",
-                "results/report/case1/exceedance.json", "results/report/case1/zoning.json")
+FINAL_TABLES = (
+    "results/mc/case1/realizations.csv",
+    "results/mc/case1/paired.csv",
+    "results/validation/case1/pairs.csv",
+    "results/report/validation/table.csv",
+    "results/report/validation/gate.json",
+    "results/report/case1/exceedance.json",
+    "results/report/case1/zoning.json",
+)
 
 # (file, fault, what the console names): each found before the run, removed, made again (one of each
 # reader: the other tables, fields and scenes go through the same sweep, tests/test_integrity.py)
 FAULTS = [
     ("results/mc/case1/realizations.csv", truncate, "results/mc/case1/realizations.csv is damaged (TableError"),
     ("results/mc/case1/realizations.csv", Path.unlink, None),
-    ("results/mc/case1/chunk_001.csv", cut_a_row,
-     "results/mc/case1/chunk_001.csv is damaged (TableError: holds realizations [2], not [2, 3] (cut short"),
+    (
+        "results/mc/case1/chunk_001.csv",
+        cut_a_row,
+        "results/mc/case1/chunk_001.csv is damaged (TableError: holds realizations [2], not [2, 3] (cut short",
+    ),
     ("results/mpm/case1/chunk_000/0001.h5", truncate, "results/mpm/case1/chunk_000 (its member 0001.h5) is damaged"),
     ("results/mpm/case1/chunk_000/0001.h5", Path.unlink, "results/mpm/case1/chunk_000 lacks 0001.h5: removed"),
     ("results/dataset/train.h5", garble, "results/dataset/train.h5 is damaged"),
@@ -138,8 +157,9 @@ FAULTS = [
 ]
 
 
-@pytest.mark.parametrize("name, fault, announced", FAULTS,
-                         ids=[f"{Path(name).name}-{fault.__name__}" for name, fault, _ in FAULTS])
+@pytest.mark.parametrize(
+    "name, fault, announced", FAULTS, ids=[f"{Path(name).name}-{fault.__name__}" for name, fault, _ in FAULTS]
+)
 def test_a_damaged_or_missing_intermediate_is_rebuilt_by_the_next_hazard_map(copied, built, name, fault, announced):
     """Truncated, garbled or deleted (a member of a folder output too): the next hazard_map names it on
     the console, makes it again and everything made from it; the final tables are byte-identical to the

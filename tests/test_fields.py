@@ -1,4 +1,5 @@
 """Random fields: SNX correlation theory, the two factorisations, seeds, clipping, mapping."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -17,8 +18,12 @@ from rgns.fields import (
     write_field,
 )
 
-GROUP = {"friction_mean_deg": 30.0, "friction_std_deg": 5.0,
-         "correlation_length_x_m": 10.0, "correlation_length_y_m": 4.0}
+GROUP = {
+    "friction_mean_deg": 30.0,
+    "friction_std_deg": 5.0,
+    "correlation_length_x_m": 10.0,
+    "correlation_length_y_m": 4.0,
+}
 BOUNDS = (0.01, 89.99)  # wide enough that nothing is clipped
 N_FIELDS = 2000
 
@@ -113,8 +118,9 @@ def test_a_realization_reproduces_whatever_the_batch_it_is_drawn_in(grid):
 
 def test_training_means_are_uniform_over_the_configured_range(grid):
     group = dict(GROUP, friction_mean_deg=[20.0, 35.0])
-    _, _, means = realize_fields(1, "train", list(range(N_FIELDS)), group, FieldGrid.covering(4, 2, 1.0),
-                                 "kronecker", BOUNDS)
+    _, _, means = realize_fields(
+        1, "train", list(range(N_FIELDS)), group, FieldGrid.covering(4, 2, 1.0), "kronecker", BOUNDS
+    )
     assert means.min() >= 20.0 and means.max() <= 35.0
     assert stats.kstest(means, stats.uniform(loc=20.0, scale=15.0).cdf).pvalue > 1e-3
 
@@ -135,8 +141,13 @@ def test_clipping_keeps_friction_inside_bounds_and_records_the_fraction(grid):
 def test_particles_take_the_value_of_the_cell_that_contains_them(grid, tmp_path):
     positions = np.array([[0.2, 0.3], [0.99, 0.01], [12.5, 7.5], [29.9, 15.99], [30.0, 16.0]])
     field = friction_field(9, "case3", 4, GROUP, grid, "kronecker", BOUNDS, positions)
-    expected = [field.friction_grid_deg[0, 0], field.friction_grid_deg[0, 0], field.friction_grid_deg[12, 7],
-                field.friction_grid_deg[29, 15], field.friction_grid_deg[29, 15]]
+    expected = [
+        field.friction_grid_deg[0, 0],
+        field.friction_grid_deg[0, 0],
+        field.friction_grid_deg[12, 7],
+        field.friction_grid_deg[29, 15],
+        field.friction_grid_deg[29, 15],
+    ]
     np.testing.assert_array_equal(field.friction_deg, expected)
     path = tmp_path / "field.npz"
     write_field(str(path), field)

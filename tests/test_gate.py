@@ -1,4 +1,5 @@
 """The validation gate: which Monte Carlo cases may be drawn from the GNS, and what happens otherwise."""
+
 from __future__ import annotations
 
 import copy
@@ -10,10 +11,16 @@ import pytest
 from rgns.gate import GateError, judge, read_verdict, simulator_for, write_verdicts
 from rgns.validation import case_agreement, validation_table
 
-ACCEPTANCE = {"metrics": {"runout": {"r2_min": 0.9, "relative_bias_max": 0.05},
-                          "volume": {"r2_min": 0.9, "relative_bias_max": 0.1},
-                          "influence": {"r2_min": 0.9, "relative_bias_max": 0.1}},
-              "diverged_fraction_max": 0.0, "on_failure": "fallback", "min_realizations": 16}
+ACCEPTANCE = {
+    "metrics": {
+        "runout": {"r2_min": 0.9, "relative_bias_max": 0.05},
+        "volume": {"r2_min": 0.9, "relative_bias_max": 0.1},
+        "influence": {"r2_min": 0.9, "relative_bias_max": 0.1},
+    },
+    "diverged_fraction_max": 0.0,
+    "on_failure": "fallback",
+    "min_realizations": 16,
+}
 
 
 def _pairs(mpm: dict[str, np.ndarray], gns: dict[str, np.ndarray], status: list[str] | None = None) -> pd.DataFrame:
@@ -71,8 +78,11 @@ def test_on_failure_stop_raises_naming_case_and_metric(tmp_path):
     verdicts = _verdicts({"case1": _pairs(MPM, dict(MPM, runout_m=MPM["runout_m"] * 0.8))}, acceptance)
     path = tmp_path / "gate.json"
     write_verdicts(verdicts, path)
-    with pytest.raises(GateError, match=r"case1: the GNS failed the validation gate \(runout R² 0.582 \[[-0-9.]+, [-0-9.]+\]: lower bound < 0.9; "
-                       r"runout \|relative bias\| 0.200"):
+    with pytest.raises(
+        GateError,
+        match=r"case1: the GNS failed the validation gate \(runout R² 0.582 \[[-0-9.]+, [-0-9.]+\]: lower bound < 0.9; "
+        r"runout \|relative bias\| 0.200",
+    ):
         simulator_for(path, "case1")
     fallback = _verdicts({"case1": _pairs(MPM, dict(MPM, runout_m=MPM["runout_m"] * 0.8))})
     write_verdicts(fallback, path)
@@ -86,7 +96,7 @@ def _with_r2(mpm: np.ndarray, r2: float, rng: np.random.Generator) -> np.ndarray
     noise = rng.standard_normal(mpm.size)
     noise -= noise.mean()
     ss_tot = np.sum((mpm - mpm.mean()) ** 2)
-    return mpm + noise * np.sqrt((1 - r2) * ss_tot / np.sum(noise ** 2))
+    return mpm + noise * np.sqrt((1 - r2) * ss_tot / np.sum(noise**2))
 
 
 @pytest.mark.parametrize("n, passes", [(16, False), (400, True)])

@@ -1,4 +1,5 @@
 """Geometry: perturbation ranges, polygon validity, particle seeding, scene files."""
+
 from __future__ import annotations
 
 import json
@@ -24,8 +25,14 @@ SQUARE = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
 
 def _scene(config, set_name, index, family_name):
     return build_scene(
-        set_name, index, family_name, config["geometry"]["families"][family_name], config["domain"],
-        config["mesh"], config["geometry"], config["seed"],
+        set_name,
+        index,
+        family_name,
+        config["geometry"]["families"][family_name],
+        config["domain"],
+        config["mesh"],
+        config["geometry"],
+        config["seed"],
     )
 
 
@@ -60,8 +67,16 @@ def test_perturbed_vertices_stay_in_their_ranges_and_polygons_stay_valid(config_
                 for axis, key in enumerate(("x_m", "y_m")):
                     low, high = as_range(vertex[key])
                     assert low <= scene.vertices[k, axis] <= high, (family_name, index, k, key)
-            assert polygon_problems(scene.vertices, domain["length_m"], domain["height_m"],
-                                    geometry["runout_room_m"], config["mesh"]["cell_size_m"]) == []
+            assert (
+                polygon_problems(
+                    scene.vertices,
+                    domain["length_m"],
+                    domain["height_m"],
+                    geometry["runout_room_m"],
+                    config["mesh"]["cell_size_m"],
+                )
+                == []
+            )
 
 
 def test_ranged_vertices_actually_vary_and_fixed_ones_do_not(default_config):
@@ -107,8 +122,16 @@ def test_seeding_error_shrinks_with_finer_particles(default_config):
 def test_a_family_without_room_for_the_runout_fails_naming_the_family(default_config):
     geometry = dict(default_config["geometry"], runout_room_m=60.0, max_draws=5)
     with pytest.raises(GeometryError, match=r"'slope'.*5 draws.*runout room"):
-        build_scene("train", 0, "slope", geometry["families"]["slope"], default_config["domain"],
-                    default_config["mesh"], geometry, 1)
+        build_scene(
+            "train",
+            0,
+            "slope",
+            geometry["families"]["slope"],
+            default_config["domain"],
+            default_config["mesh"],
+            geometry,
+            1,
+        )
 
 
 def test_scene_files_round_trip_and_a_broken_one_is_named(default_config, tmp_path):

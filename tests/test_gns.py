@@ -1,4 +1,5 @@
 """The graph network simulator: graphs, symmetries, training, resume, DDP, rollout."""
+
 from __future__ import annotations
 
 import signal
@@ -12,6 +13,7 @@ import pytest
 import torch
 import torch.distributed as dist
 import torch.multiprocessing as mp
+from conftest import REPO
 
 from rgns.gns.data import WindowSampler
 from rgns.gns.graph import brute_force_graph, radius_graph
@@ -19,11 +21,11 @@ from rgns.gns.rollout import RolloutSettings, rollout
 from rgns.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, Normalization, OneStepLoss
 from rgns.gns.train import TrainSettings, learning_rate, load_simulator, pushforward, train
 from rgns.trajectories import SOIL, Trajectory, pack, write_trajectory
-from conftest import REPO
 
 NORMALIZATION = Normalization([0.0, -0.01], [0.02, 0.03], [0.0, -0.001], [0.002, 0.003], 0.6, 0.1)
-SMALL = ModelSettings(latent_size=16, mlp_width=16, mlp_hidden_layers=2, message_passing_steps=3, history=3,
-                      radius_m=1.2)
+SMALL = ModelSettings(
+    latent_size=16, mlp_width=16, mlp_hidden_layers=2, message_passing_steps=3, history=3, radius_m=1.2
+)
 
 
 @pytest.fixture(autouse=True)
@@ -52,8 +54,13 @@ def _graph(generator: torch.Generator, n: int = 120) -> GraphInput:
     start = torch.rand(n, 2, generator=generator) * torch.tensor([8.0, 4.0]) + 1.0
     steps = torch.cumsum(torch.randn(n, SMALL.history, 2, generator=generator) * 0.02, dim=1)
     positions = torch.cat([start[:, None], start[:, None] + steps], dim=1)
-    return GraphInput(positions, torch.full((n,), SOIL), 0.5 + 0.2 * torch.rand(n, generator=generator),
-                      torch.zeros(n, dtype=torch.long), 1)
+    return GraphInput(
+        positions,
+        torch.full((n,), SOIL),
+        0.5 + 0.2 * torch.rand(n, generator=generator),
+        torch.zeros(n, dtype=torch.long),
+        1,
+    )
 
 
 def test_the_model_is_equivariant_to_particle_permutation():
@@ -61,10 +68,12 @@ def test_the_model_is_equivariant_to_particle_permutation():
     simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 30.0], [0.0, 10.0]]))
     graph = _graph(generator)
     order = torch.randperm(len(graph.batch), generator=generator)
-    permuted = GraphInput(graph.positions[order], graph.particle_type[order], graph.tan_friction[order],
-                          graph.batch[order], 1)
-    torch.testing.assert_close(simulator.next_positions(permuted), simulator.next_positions(graph)[order],
-                               rtol=1e-5, atol=1e-5)
+    permuted = GraphInput(
+        graph.positions[order], graph.particle_type[order], graph.tan_friction[order], graph.batch[order], 1
+    )
+    torch.testing.assert_close(
+        simulator.next_positions(permuted), simulator.next_positions(graph)[order], rtol=1e-5, atol=1e-5
+    )
 
 
 def test_the_model_is_invariant_to_translation_away_from_walls():
@@ -74,15 +83,16 @@ def test_the_model_is_invariant_to_translation_away_from_walls():
     graph = _graph(generator)
     shift = torch.tensor([3.7, -2.1])
     moved = GraphInput(graph.positions + shift, graph.particle_type, graph.tan_friction, graph.batch, 1)
-    torch.testing.assert_close(simulator.next_positions(moved), simulator.next_positions(graph) + shift,
-                               rtol=1e-5, atol=1e-4)
+    torch.testing.assert_close(
+        simulator.next_positions(moved), simulator.next_positions(graph) + shift, rtol=1e-5, atol=1e-4
+    )
 
 
 def test_learning_rate_decays_exponentially_to_its_floor():
     settings = TrainSettings(learning_rate=1e-3, learning_rate_min=1e-6, decay_rate=0.1, decay_steps=1000)
     assert learning_rate(settings, 0) == pytest.approx(1e-3)
     assert learning_rate(settings, 1000) == pytest.approx(1e-6 + (1e-3 - 1e-6) * 0.1)
-    assert learning_rate(settings, 10 ** 7) == pytest.approx(1e-6)
+    assert learning_rate(settings, 10**7) == pytest.approx(1e-6)
 
 
 def _sliding_trajectory(index: int, frames: int = 40) -> Trajectory:
@@ -97,8 +107,19 @@ def _sliding_trajectory(index: int, frames: int = 40) -> Trajectory:
     positions = np.repeat(start[None], frames, axis=0)
     positions[:, :, 0] += v0 / k * (1 - np.exp(-k * t))
     n = len(start)
-    return Trajectory(positions, t[:, 0] * 0.025, np.full(n, SOIL), np.full(n, friction_deg), np.full(n, 0.25),
-                      np.full(n, 450.0), 0.025, np.array([[0.0, 20.0], [0.0, 10.0]]), "test", "train", index)
+    return Trajectory(
+        positions,
+        t[:, 0] * 0.025,
+        np.full(n, SOIL),
+        np.full(n, friction_deg),
+        np.full(n, 0.25),
+        np.full(n, 450.0),
+        0.025,
+        np.array([[0.0, 20.0], [0.0, 10.0]]),
+        "test",
+        "train",
+        index,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -119,8 +140,17 @@ def tiny_dataset(tmp_path_factory):
 def trained_small(tiny_dataset, tmp_path_factory):
     """The small model trained 800 steps on the sliding blocks, and its training summary."""
     directory = tmp_path_factory.mktemp("trained")
-    settings = TrainSettings(steps=800, batch_graphs=2, learning_rate=3e-3, noise_std=0.0, smoothing_frames=0.0, log_every=25,
-                             validate_every=800, checkpoint_every=800, selection_trajectories=1)
+    settings = TrainSettings(
+        steps=800,
+        batch_graphs=2,
+        learning_rate=3e-3,
+        noise_std=0.0,
+        smoothing_frames=0.0,
+        log_every=25,
+        validate_every=800,
+        checkpoint_every=800,
+        selection_trajectories=1,
+    )
     torch.set_num_threads(1)
     return directory, train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], directory)
 
@@ -136,8 +166,9 @@ def test_training_on_a_tiny_dataset_lowers_the_loss_by_a_large_factor(trained_sm
 
 
 @pytest.mark.parametrize("skipping", [False, True])
-def test_a_trained_rollout_twice_the_training_horizon_stays_in_the_domain_and_slows_down(trained_small, tiny_dataset,
-                                                                                       skipping):
+def test_a_trained_rollout_twice_the_training_horizon_stays_in_the_domain_and_slows_down(
+    trained_small, tiny_dataset, skipping
+):
     """Stability stress: 80 frames from a 40-frame training horizon, every realization of both sets."""
     directory, _ = trained_small
     simulator = load_simulator(directory / "gns.pt").eval()
@@ -146,14 +177,20 @@ def test_a_trained_rollout_twice_the_training_horizon_stays_in_the_domain_and_sl
         sampler = WindowSampler(tiny_dataset[name], SMALL.history)
         horizon = sampler.frames
         for k in range(sampler.n_trajectories):
-            result = rollout(simulator, [sampler.frames_of(k, 0, SMALL.history + 1)], [sampler.particle_type[k].numpy()],
-                             [sampler.tan_friction[k].numpy()], 2 * horizon, settings)[0]
+            result = rollout(
+                simulator,
+                [sampler.frames_of(k, 0, SMALL.history + 1)],
+                [sampler.particle_type[k].numpy()],
+                [sampler.tan_friction[k].numpy()],
+                2 * horizon,
+                settings,
+            )[0]
             positions = result.positions
             assert result.status == "ok" and np.isfinite(positions).all()
             lower, upper = simulator.bounds[:, 0].numpy(), simulator.bounds[:, 1].numpy()
             assert (positions >= lower).all() and (positions <= upper).all()
             kinetic = (np.diff(positions, axis=0) ** 2).sum(axis=2).mean(axis=1)  # mean squared velocity per frame
-            first, last = kinetic[:horizon // 4].mean(), kinetic[-horizon // 4:].mean()
+            first, last = kinetic[: horizon // 4].mean(), kinetic[-horizon // 4 :].mean()
             print(f"{name} {k}: mean v^2 {first:.3g} -> {last:.3g} over {2 * horizon} frames")
             assert last < 0.5 * first
 
@@ -177,8 +214,13 @@ def _ddp_worker(rank: int, world: int, init_file: str, batches: list, out: str) 
 def _combine(parts: list[tuple[GraphInput, torch.Tensor]]) -> tuple[GraphInput, torch.Tensor]:
     graphs = [g for g, _ in parts]
     batch = torch.cat([g.batch + i for i, g in enumerate(graphs)])
-    combined = GraphInput(torch.cat([g.positions for g in graphs]), torch.cat([g.particle_type for g in graphs]),
-                          torch.cat([g.tan_friction for g in graphs]), batch, len(graphs))
+    combined = GraphInput(
+        torch.cat([g.positions for g in graphs]),
+        torch.cat([g.particle_type for g in graphs]),
+        torch.cat([g.tan_friction for g in graphs]),
+        batch,
+        len(graphs),
+    )
     return combined, torch.cat([t for _, t in parts])
 
 
@@ -225,7 +267,7 @@ from rgns.gns.train import TrainSettings, train
 model = ModelSettings(**{SMALL.__dict__!r})
 settings = TrainSettings(steps=int(sys.argv[1]), batch_graphs=1, log_every=10, validate_every=10_000,
                          checkpoint_every=20, selection_trajectories=1)
-train(model, settings, {tiny_dataset['train']!r}, {tiny_dataset['valid']!r}, {str(tmp_path)!r})
+train(model, settings, {tiny_dataset["train"]!r}, {tiny_dataset["valid"]!r}, {str(tmp_path)!r})
 """
     first = subprocess.Popen([sys.executable, "-c", script, "100000"], stdout=subprocess.PIPE, text=True)
     checkpoint = tmp_path / "checkpoints" / "latest.pt"
@@ -238,7 +280,9 @@ train(model, settings, {tiny_dataset['train']!r}, {tiny_dataset['valid']!r}, {st
     first.wait()
     saved = torch.load(checkpoint, weights_only=False)["step"]
     assert saved >= 40 and saved % 20 == 0
-    resumed = subprocess.run([sys.executable, "-c", script, str(saved + 40)], capture_output=True, text=True, timeout=300)
+    resumed = subprocess.run(
+        [sys.executable, "-c", script, str(saved + 40)], capture_output=True, text=True, timeout=300
+    )
     assert resumed.returncode == 0, resumed.stderr
     assert f"resumed from step {saved} of {saved + 40}" in resumed.stdout
     assert f"step {saved + 10}/{saved + 40}" in resumed.stdout and "step 10/" not in resumed.stdout
@@ -297,17 +341,27 @@ def test_rest_skipping_a_realization_entirely_at_rest_keeps_it_still(tiny_datase
     sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
     start = sampler.frames_of(0, 0, SMALL.history + 1)
     start[:] = start[0]
-    result = rollout(simulator, [start], [sampler.particle_type[0].numpy()], [sampler.tan_friction[0].numpy()],
-                     SMALL.history + 4, RolloutSettings(skip_rest=True))[0]
+    result = rollout(
+        simulator,
+        [start],
+        [sampler.particle_type[0].numpy()],
+        [sampler.tan_friction[0].numpy()],
+        SMALL.history + 4,
+        RolloutSettings(skip_rest=True),
+    )[0]
     np.testing.assert_array_equal(result.positions, np.repeat(start[:1], SMALL.history + 4, axis=0))
     assert result.node_updates == 0
 
 
 def test_a_checkpoint_from_other_settings_is_set_aside_not_resumed(tiny_dataset, tmp_path):
-    quick = TrainSettings(steps=20, batch_graphs=1, log_every=10, validate_every=10_000, checkpoint_every=10,
-                          selection_trajectories=1)
+    quick = TrainSettings(
+        steps=20, batch_graphs=1, log_every=10, validate_every=10_000, checkpoint_every=10, selection_trajectories=1
+    )
     train(SMALL, quick, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
-    assert train(SMALL, replace(quick, steps=30), tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["resumed_from"] == 20
+    assert (
+        train(SMALL, replace(quick, steps=30), tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["resumed_from"]
+        == 20
+    )
     changed = replace(quick, learning_rate=5e-4, steps=30)
     summary = train(SMALL, changed, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
     assert summary["resumed_from"] == 0
@@ -320,8 +374,14 @@ def test_early_stop_ends_a_realization_at_rest_and_repeats_its_last_frame(tiny_d
     start = sampler.frames_of(0, 0, SMALL.history + 1)
     start[:] = start[0]
     settings = RolloutSettings(skip_rest=True, early_stop=True, early_stop_frames=3)
-    result = rollout(simulator, [start], [sampler.particle_type[0].numpy()], [sampler.tan_friction[0].numpy()],
-                     SMALL.history + 20, settings)[0]
+    result = rollout(
+        simulator,
+        [start],
+        [sampler.particle_type[0].numpy()],
+        [sampler.tan_friction[0].numpy()],
+        SMALL.history + 20,
+        settings,
+    )[0]
     assert result.stopped_at_frame == SMALL.history + 3
     assert result.positions.shape[0] == SMALL.history + 20
 
@@ -336,8 +396,15 @@ def test_pushforward_trains_on_the_model_s_own_prediction(tiny_dataset, tmp_path
     torch.testing.assert_close(graph.positions[:, -1], predicted)
     torch.testing.assert_close(graph.positions[:, :-1], window.graph.positions[:, 1:])
     torch.testing.assert_close(target, window.targets[:, -1])
-    settings = TrainSettings(steps=30, batch_graphs=2, pushforward_steps=1, log_every=10, validate_every=10_000,
-                             checkpoint_every=30, selection_trajectories=1)
+    settings = TrainSettings(
+        steps=30,
+        batch_graphs=2,
+        pushforward_steps=1,
+        log_every=10,
+        validate_every=10_000,
+        checkpoint_every=30,
+        selection_trajectories=1,
+    )
     assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 30
 
 
@@ -386,6 +453,7 @@ def test_padded_frames_of_an_early_stop_are_never_drawn_and_smoothing_needs_no_w
     assert {trajectory for trajectory, _ in picks} == {0, 1}
     # a window smoothed from a margin of frames equals the same frames of the whole trajectory smoothed
     from scipy.ndimage import gaussian_filter1d
+
     whole = gaussian_filter1d(sampler.frames_of(1, 0, 60), 2.0, axis=0, mode="nearest")
     np.testing.assert_allclose(sampler.smoothed_frames_of(1, 20, 5), whole[20:25], atol=1e-6)
 
@@ -394,20 +462,36 @@ def test_the_training_noise_is_folded_into_the_normalisation(tiny_dataset):
     sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
     clean, noisy = sampler.normalization(0.0), sampler.normalization(3e-3)
     for key in ("velocity_std", "acceleration_std"):
-        np.testing.assert_allclose(np.square(getattr(noisy, key)), np.square(getattr(clean, key)) + 3e-3 ** 2,
-                                   rtol=1e-6)
+        np.testing.assert_allclose(np.square(getattr(noisy, key)), np.square(getattr(clean, key)) + 3e-3**2, rtol=1e-6)
     assert noisy.velocity_mean == clean.velocity_mean
 
 
-def test_fine_tuning_starts_from_the_given_model_and_refuses_another_architecture(trained_small, tiny_dataset,
-                                                                                   tmp_path):
+def test_fine_tuning_starts_from_the_given_model_and_refuses_another_architecture(
+    trained_small, tiny_dataset, tmp_path
+):
     directory, _ = trained_small
-    settings = TrainSettings(steps=20, batch_graphs=2, noise_std=0.0, smoothing_frames=0.0, log_every=10,
-                             validate_every=20, checkpoint_every=20, selection_trajectories=0)
+    settings = TrainSettings(
+        steps=20,
+        batch_graphs=2,
+        noise_std=0.0,
+        smoothing_frames=0.0,
+        log_every=10,
+        validate_every=20,
+        checkpoint_every=20,
+        selection_trajectories=0,
+    )
     with pytest.raises(ValueError, match=r"gns.pt: its architecture differs from config gns in latent_size"):
-        train(replace(SMALL, latent_size=24), settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path / "a",
-              init_model=directory / "gns.pt")
-    train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path / "b", init_model=directory / "gns.pt")
+        train(
+            replace(SMALL, latent_size=24),
+            settings,
+            tiny_dataset["train"],
+            tiny_dataset["valid"],
+            tmp_path / "a",
+            init_model=directory / "gns.pt",
+        )
+    train(
+        SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path / "b", init_model=directory / "gns.pt"
+    )
     start = load_simulator(directory / "gns.pt")
     tuned = load_simulator(tmp_path / "b" / "gns.pt")
     assert tuned.normalization == start.normalization  # the shipped statistics are kept
@@ -418,6 +502,7 @@ def test_fine_tuning_starts_from_the_given_model_and_refuses_another_architectur
 
 def test_a_soil_rollout_keeps_its_mpm_warm_up_and_hands_over_after_it(tiny_dataset):
     from rgns.gns.rollout import rollout_soil
+
     torch.manual_seed(5)
     simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
     sampler = WindowSampler(tiny_dataset["train"], SMALL.history)
@@ -432,4 +517,4 @@ def test_a_soil_rollout_keeps_its_mpm_warm_up_and_hands_over_after_it(tiny_datas
     assert ends.frame.tolist() == [0, 38, 39]
     # the paper's hand-over: right after history + 1 frames
     paper = rollout_soil(simulator, [truth], friction, 40)[0]
-    np.testing.assert_array_equal(paper.positions[:SMALL.history + 1], truth[:SMALL.history + 1])
+    np.testing.assert_array_equal(paper.positions[: SMALL.history + 1], truth[: SMALL.history + 1])

@@ -1,4 +1,5 @@
 """Monte Carlo hazard statistics against theory: bands, quantiles, convergence, zoning, figures."""
+
 from __future__ import annotations
 
 import re
@@ -70,7 +71,8 @@ def test_exceedance_distances_of_a_normal_sample_bracket_the_analytic_quantiles_
         assert result.lower_m <= result.distance_m <= result.upper_m
         # Asymptotic standard error of a sample quantile: sqrt(p (1 - p) / n) / density.
         standard_error_m = np.sqrt(result.probability * (1.0 - result.probability) / n) / stats.norm.pdf(
-            quantile_m, mean_m, std_m)
+            quantile_m, mean_m, std_m
+        )
         assert result.upper_m - result.lower_m == pytest.approx(2.0 * z * standard_error_m, rel=0.25)
 
 
@@ -115,8 +117,8 @@ def _brute_force_convergence(values: np.ndarray, tolerance: float, window: int, 
     passed = {}
     for n in range(3, last_n + 1):
         std = values[:n].std(ddof=1)
-        change_mean = abs(values[:n].mean() - values[:n - 1].mean()) / std
-        change_variance = abs(values[:n].var(ddof=1) - values[:n - 1].var(ddof=1)) / std**2
+        change_mean = abs(values[:n].mean() - values[: n - 1].mean()) / std
+        change_variance = abs(values[:n].var(ddof=1) - values[: n - 1].var(ddof=1)) / std**2
         passed[n] = change_mean < tolerance and change_variance < tolerance
     return next((n for n in range(3, last_n - window + 2) if all(passed[k] for k in range(n, n + window))), None)
 
@@ -163,11 +165,21 @@ def test_affected_probability_rejects_reversed_or_half_missing_intervals(rear, f
         affected_probability(np.array([0.5]), np.array(rear), np.array(front))
 
 
-@pytest.mark.parametrize("probability, level", [
-    (1.0, "extremely high"), (9 / 10, "extremely high"), (0.8999, "high"), (0.5, "high"),
-    (0.4999, "moderate"), (0.1, "moderate"), (0.0999, "low"), (1 / 100, "low"), (0.0099, "extremely low"),
-    (0.0, "extremely low"),
-])
+@pytest.mark.parametrize(
+    "probability, level",
+    [
+        (1.0, "extremely high"),
+        (9 / 10, "extremely high"),
+        (0.8999, "high"),
+        (0.5, "high"),
+        (0.4999, "moderate"),
+        (0.1, "moderate"),
+        (0.0999, "low"),
+        (1 / 100, "low"),
+        (0.0099, "extremely low"),
+        (0.0, "extremely low"),
+    ],
+)
 def test_a_threshold_probability_belongs_to_the_higher_zone(probability, level):
     assert ZONE_LEVELS[int(zone_levels(np.array([probability]), DEFAULT_THRESHOLDS)[0])] == level
 
@@ -176,12 +188,16 @@ def test_zones_merge_runs_in_x_order_with_edges_midway_between_levels():
     x_m = np.array([4.0, 0.0, 1.0, 2.0, 3.0, 5.0])
     levels = np.array([4, 0, 0, 1, 1, 4])
     assert zones(x_m, levels) == [
-        Zone("extremely high", 0.0, 1.5), Zone("high", 1.5, 3.5), Zone("extremely low", 3.5, 5.0),
+        Zone("extremely high", 0.0, 1.5),
+        Zone("high", 1.5, 3.5),
+        Zone("extremely low", 3.5, 5.0),
     ]
 
 
-@pytest.mark.parametrize("thresholds", [(0.5, 0.9, 0.1, 0.01), (1.0, 0.5, 0.1, 0.01), (0.9, 0.5, 0.5, 0.01),
-                                        (0.9, 0.5, 0.1), (0.9, 0.5, 0.1, 0.0)])
+@pytest.mark.parametrize(
+    "thresholds",
+    [(0.5, 0.9, 0.1, 0.01), (1.0, 0.5, 0.1, 0.01), (0.9, 0.5, 0.5, 0.01), (0.9, 0.5, 0.1), (0.9, 0.5, 0.1, 0.0)],
+)
 def test_bad_thresholds_raise_an_error_naming_them(thresholds):
     with pytest.raises(ValueError, match=re.escape(str(list(thresholds)))):
         zone_levels(np.array([0.5]), thresholds)
@@ -191,10 +207,14 @@ def test_each_hazard_figure_writes_a_png(tmp_path):
     rng = np.random.default_rng(12)
     runout_m, influence_m = rng.exponential(8.0, 300), rng.exponential(3.0, 300)
     traces = {"influence distance I": convergence(influence_m), "runout distance R": convergence(runout_m)}
-    curves = {name: exceedance_curve(values) for name, values in
-              (("influence distance I", influence_m), ("runout distance R", runout_m))}
-    distances = {name: exceedance_distances(values) for name, values in
-                 (("influence distance I", influence_m), ("runout distance R", runout_m))}
+    curves = {
+        name: exceedance_curve(values)
+        for name, values in (("influence distance I", influence_m), ("runout distance R", runout_m))
+    }
+    distances = {
+        name: exceedance_distances(values)
+        for name, values in (("influence distance I", influence_m), ("runout distance R", runout_m))
+    }
     vertices = np.array([[0.0, 0.0], [40.0, 0.0], [25.0, 10.0], [0.0, 10.0]])
     x_m = np.linspace(0.0, 80.0, 161)
     affected = affected_probability(x_m, 25.0 - influence_m, 40.0 + runout_m)

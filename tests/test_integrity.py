@@ -1,4 +1,5 @@
 """The sweep for damaged intermediates: what it removes, what it keeps, what it says, what it rereads."""
+
 from pathlib import Path
 
 from rgns.integrity import Kind, dry_run, locked, sweep
@@ -17,8 +18,10 @@ def test_a_damaged_table_is_removed_and_named_a_whole_one_kept_and_not_read_agai
     said: list[str] = []
     assert sweep(tmp_path, say=said.append) == ["results/mc/b/realizations.csv"]
     assert good.exists() and not cut.exists()
-    assert said == ["rgns: results/mc/b/realizations.csv is damaged (TableError: cut short (no newline after "
-                    "its last row)); removed, so that this run makes it again"]
+    assert said == [
+        "rgns: results/mc/b/realizations.csv is damaged (TableError: cut short (no newline after "
+        "its last row)); removed, so that this run makes it again"
+    ]
     reads: list[Path] = []
     counting = (Kind("results/mc/**/*.csv", reads.append),)
     sweep(tmp_path, kinds=counting, say=said.append)
@@ -34,8 +37,13 @@ def test_a_folder_output_short_of_a_member_and_a_chunk_holding_other_realization
     (folder / "0000.h5").write_bytes(b"")
     chunk = table(tmp_path / "results" / "mc" / "case1" / "chunk_001.csv", [2])
     said: list[str] = []
-    removed = sweep(tmp_path, folders={"results/mpm/case1/chunk_000": ["0000.h5", "0001.h5"]},
-                    chunks={"results/mc/case1/chunk_001.csv": [2, 3]}, kinds=(), say=said.append)
+    removed = sweep(
+        tmp_path,
+        folders={"results/mpm/case1/chunk_000": ["0000.h5", "0001.h5"]},
+        chunks={"results/mc/case1/chunk_001.csv": [2, 3]},
+        kinds=(),
+        say=said.append,
+    )
     assert removed == ["results/mpm/case1/chunk_000", "results/mc/case1/chunk_001.csv"]
     assert not folder.exists() and not chunk.exists()
     assert said[0] == "rgns: results/mpm/case1/chunk_000 lacks 0001.h5: removed, so that this run makes it again"

@@ -1,4 +1,5 @@
 """Runout metrics and energies on constructed trajectories whose answers are known by hand."""
+
 import numpy as np
 import pytest
 
@@ -36,8 +37,9 @@ def test_a_rigid_shift_of_half_a_metre_displaces_nothing(slope):
 
 def test_the_displacement_threshold_is_configurable(slope):
     positions, volumes = slope
-    measured = runout_metrics(positions, positions + [0.5, 0.0], volumes, crest_x(SLOPE),
-                              MetricSettings(displacement_threshold_m=0.4))
+    measured = runout_metrics(
+        positions, positions + [0.5, 0.0], volumes, crest_x(SLOPE), MetricSettings(displacement_threshold_m=0.4)
+    )
     assert measured.displaced_fraction == 1.0
 
 
@@ -53,7 +55,8 @@ def test_a_single_stray_particle_does_not_move_the_runout_distance(slope):
     # with the percentile at 100 the stray particle sets R
     front = MetricSettings(runout_percentile=100.0)
     assert runout_metrics(positions, stray, volumes, crest_x(SLOPE), front).runout_m == pytest.approx(
-        runout_metrics(positions, final, volumes, crest_x(SLOPE), front).runout_m + 40.0)
+        runout_metrics(positions, final, volumes, crest_x(SLOPE), front).runout_m + 40.0
+    )
 
 
 @pytest.mark.parametrize("cell_size_m, tolerance", [(0.5, 0.04), (0.25, 0.02), (0.1, 0.008)])
@@ -85,7 +88,7 @@ def test_a_body_at_rest_keeps_all_its_potential_energy():
 def test_free_fall_converts_potential_to_kinetic_energy_without_dissipation():
     dt, g = 0.001, 9.81
     t = np.arange(0, 1.0 + dt / 2, dt)
-    height = 10.0 - 0.5 * g * t ** 2
+    height = 10.0 - 0.5 * g * t**2
     positions = np.stack([np.zeros_like(t), height], axis=1)[:, None, :]
     energies = normalized_energies(positions, np.array([3.0]), dt, g)
     assert energies[-1, 0] == pytest.approx(height[-1] / 10.0)

@@ -1,13 +1,14 @@
 """The embedded MPM engine against analytic solutions, known scaling laws and conservation."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import torch
-
 from mpm_cases import ELASTIC, polygon_case
+
 from rgns.mpm.mohr_coulomb import MohrCoulomb, return_map, yield_function
-from rgns.mpm.shape import BASES, RegularGrid, Region
+from rgns.mpm.shape import BASES, Region, RegularGrid
 from rgns.mpm.solver import EngineSettings, basis_of, particles_of, run_batch
 from rgns.mpm.step import p2g
 
@@ -51,7 +52,7 @@ def test_the_tension_cutoff_caps_principal_stresses():
     material = MohrCoulomb.from_parameters(1e7, 0.3, 30.0, 0.0, 1e6, 100.0, trial[:, 0])
     stress, _ = return_map(*trial.unbind(1), material)
     sxx, syy, szz, txy = stress
-    largest = torch.maximum(0.5 * (sxx + syy) + torch.sqrt((0.5 * (sxx - syy)) ** 2 + txy ** 2), szz)
+    largest = torch.maximum(0.5 * (sxx + syy) + torch.sqrt((0.5 * (sxx - syy)) ** 2 + txy**2), szz)
     assert (largest <= 100.0 + 1e-9).all()
 
 
@@ -63,13 +64,22 @@ def test_mapping_to_the_grid_conserves_mass_and_momentum_exactly(tmp_path, defau
     basis, boundary = basis_of(case, shape, torch.device("cpu"))
     nodal = p2g(particles, basis(particles.x, particles.y), basis.n_nodes, boundary.repeat(2), 2)
     assert nodal.mass.sum().item() == pytest.approx(particles.mass.sum().item(), rel=1e-13)
-    assert (nodal.mass * nodal.vx).sum().item() == pytest.approx((particles.mass * particles.vx).sum().item(), rel=1e-12)
+    assert (nodal.mass * nodal.vx).sum().item() == pytest.approx(
+        (particles.mass * particles.vx).sum().item(), rel=1e-12
+    )
 
 
 def test_elastic_column_settles_to_the_weight_of_the_soil_above(tmp_path):
     height = 10.0
-    case = polygon_case(tmp_path / "column", [[0, 0], [2, 0], [2, height], [0, height]], 2.0, 12.0,
-                        geostatic_stress=False, damping_factor=0.05, **ELASTIC)
+    case = polygon_case(
+        tmp_path / "column",
+        [[0, 0], [2, 0], [2, height], [0, height]],
+        2.0,
+        12.0,
+        geostatic_stress=False,
+        damping_factor=0.05,
+        **ELASTIC,
+    )
     result = run_batch([case], EngineSettings(early_stop=False), duration_s=2.0)[0]
     mid_depth = np.abs(case.positions[:, 1] - height / 2) < 0.3
     expected = -case.density_kg_m3[mid_depth] * G * (height - case.positions[mid_depth, 1])
@@ -80,15 +90,27 @@ def test_elastic_column_settles_to_the_weight_of_the_soil_above(tmp_path):
 @pytest.mark.parametrize("shape", ["linear", "bspline"])
 def test_a_block_sliding_on_the_floor_stops_at_the_coulomb_distance(tmp_path, shape):
     mu, speed = 0.5, 5.0
-    case = polygon_case(tmp_path / "block", [[1, 0], [5, 0], [5, 2], [1, 2]], 20.0, 4.0, cell_size_m=0.25,
-                        floor_friction=mu, k0=0.3 / 0.7, **ELASTIC)
+    case = polygon_case(
+        tmp_path / "block",
+        [[1, 0], [5, 0], [5, 2], [1, 2]],
+        20.0,
+        4.0,
+        cell_size_m=0.25,
+        floor_friction=mu,
+        k0=0.3 / 0.7,
+        **ELASTIC,
+    )
     start = np.tile([speed, 0.0], (len(case.positions), 1))
     # Pure PIC damps the block's elastic vibration, which under FLIP makes the floor's normal force
     # flicker and over-brakes (measured: 0.63 of the Coulomb distance at E = 100 MPa).
-    result = run_batch([case], EngineSettings(early_stop=False, shape_function=shape, pic_blend=1.0), duration_s=2.0,
-                       initial_velocity=[start])[0]
+    result = run_batch(
+        [case],
+        EngineSettings(early_stop=False, shape_function=shape, pic_blend=1.0),
+        duration_s=2.0,
+        initial_velocity=[start],
+    )[0]
     distance = (result.positions[-1, :, 0] - result.positions[0, :, 0]).mean()
-    assert distance == pytest.approx(speed ** 2 / (2 * mu * G), rel=0.05)
+    assert distance == pytest.approx(speed**2 / (2 * mu * G), rel=0.05)
     assert np.abs(result.positions[-1, :, 0] - result.positions[-5, :, 0]).max() < 1e-3  # it has stopped
 
 
@@ -98,10 +120,20 @@ def column_collapse(tmp_path_factory):
     width = 2.0
     specs = [(a, 35.0) for a in (0.5, 0.75, 1.0, 1.25, 1.5, 3.0, 4.0, 6.0)] + [(1.5, 45.0), (3.0, 45.0)]
     directory = tmp_path_factory.mktemp("collapse")
-    cases = [polygon_case(directory / f"{i}", [[0, 0], [width, 0], [width, a * width], [0, a * width]], 36.0, 13.0,
-                          cell_size_m=0.25, friction_deg=phi, index=i, youngs_modulus_pa=5e6,
-                          floor_friction=float(np.tan(np.radians(phi))))
-             for i, (a, phi) in enumerate(specs)]
+    cases = [
+        polygon_case(
+            directory / f"{i}",
+            [[0, 0], [width, 0], [width, a * width], [0, a * width]],
+            36.0,
+            13.0,
+            cell_size_m=0.25,
+            friction_deg=phi,
+            index=i,
+            youngs_modulus_pa=5e6,
+            floor_friction=float(np.tan(np.radians(phi))),
+        )
+        for i, (a, phi) in enumerate(specs)
+    ]
     torch.set_num_threads(1)
     results = run_batch(cases, EngineSettings(shape_function="bspline"), duration_s=6.0)
     runout = {spec: (result.positions[-1, :, 0].max() - width) / width for spec, result in zip(specs, results)}
@@ -148,8 +180,18 @@ def test_no_nan_and_no_energy_gain_across_stiffness_friction_and_slope_angle(tmp
         toe = 4.0 + height / np.tan(np.radians(angle))
         for phi in (15.0, 30.0, 45.0):
             vertices = [[0, 0], [toe, 0], [4.0, height], [0, height]]
-            cases.append(polygon_case(tmp_path / f"{angle}_{phi}", vertices, 24.0, 6.0, cell_size_m=1.0,
-                                      friction_deg=phi, index=len(cases), youngs_modulus_pa=youngs_modulus_pa))
+            cases.append(
+                polygon_case(
+                    tmp_path / f"{angle}_{phi}",
+                    vertices,
+                    24.0,
+                    6.0,
+                    cell_size_m=1.0,
+                    friction_deg=phi,
+                    index=len(cases),
+                    youngs_modulus_pa=youngs_modulus_pa,
+                )
+            )
     results = run_batch(cases, EngineSettings(early_stop=False), duration_s=20.0)
     for case, result in zip(cases, results):
         assert result.status == "ok", (case.directory, result.status)
@@ -157,7 +199,8 @@ def test_no_nan_and_no_energy_gain_across_stiffness_friction_and_slope_angle(tmp
         total = result.energies.sum(axis=1)
         assert total.max() <= 1.01 * total[0], (case.directory, total.max() / total[0])
         assert case.volumes.sum() * case.density_kg_m3[0] == pytest.approx(
-            sum(case.volumes * case.density_kg_m3), rel=1e-12)
+            sum(case.volumes * case.density_kg_m3), rel=1e-12
+        )
 
 
 @pytest.mark.parametrize("cell_size_m", [0.5, 1.0, 2.0])
@@ -167,8 +210,17 @@ def test_no_nan_and_no_energy_gain_across_cell_size_and_time_step_up_to_the_cfl_
     height = max(4.0, 4 * cell_size_m)
     toe = 4.0 + height / np.tan(np.radians(60.0))
     cfls = (0.1, 0.2, 0.5, 1.0)
-    cases = [polygon_case(tmp_path / f"{cfl}", [[0, 0], [toe, 0], [4.0, height], [0, height]], 32.0, height + 2.0,
-                          cell_size_m=cell_size_m, friction_deg=25.0) for cfl in cfls]
+    cases = [
+        polygon_case(
+            tmp_path / f"{cfl}",
+            [[0, 0], [toe, 0], [4.0, height], [0, height]],
+            32.0,
+            height + 2.0,
+            cell_size_m=cell_size_m,
+            friction_deg=25.0,
+        )
+        for cfl in cfls
+    ]
     outcomes = {}
     for cfl, case in zip(cfls, cases):
         result = run_batch([case], EngineSettings(early_stop=False, cfl=cfl), duration_s=5.0)[0]
@@ -185,8 +237,12 @@ def test_no_nan_and_no_energy_gain_across_cell_size_and_time_step_up_to_the_cfl_
 
 
 def test_keeping_only_the_ends_returns_exactly_those_frames_of_a_full_run(tmp_path):
-    cases = [polygon_case(tmp_path / f"{phi}", [[0, 0], [8, 0], [4, 3], [0, 3]], 16.0, 4.0, cell_size_m=1.0,
-                          friction_deg=phi, index=k) for k, phi in enumerate((20.0, 45.0))]
+    cases = [
+        polygon_case(
+            tmp_path / f"{phi}", [[0, 0], [8, 0], [4, 3], [0, 3]], 16.0, 4.0, cell_size_m=1.0, friction_deg=phi, index=k
+        )
+        for k, phi in enumerate((20.0, 45.0))
+    ]
     settings = EngineSettings(early_stop=True, early_stop_duration_s=0.25)
     full = run_batch(cases, settings, duration_s=3.0, frame_interval_s=0.05)
     ends = run_batch(cases, settings, duration_s=3.0, frame_interval_s=0.05, keep="ends")
@@ -210,12 +266,14 @@ def unpadded_runs(tmp_path_factory):
     try:
         writer.PAD_CELLS = 0
         column = polygon_case(directory / "column", [[0, 0], [4, 0], [4, 8], [0, 8]], 24.0, 10.0, cell_size_m=0.5)
-        slope = polygon_case(directory / "slope", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0,
-                             index=1)
+        slope = polygon_case(
+            directory / "slope", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0, index=1
+        )
     finally:
         writer.PAD_CELLS = padding
-    padded = polygon_case(directory / "padded", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0,
-                          index=2)
+    padded = polygon_case(
+        directory / "padded", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0, index=2
+    )
     assert column.nodes.min() == 0.0 and padded.nodes.min() < 0.0
     settings = EngineSettings(shape_function="bspline")
     return (column, slope, padded), [run_batch([case], settings, duration_s=5.0)[0] for case in (column, slope, padded)]
@@ -226,7 +284,9 @@ def test_bsplines_run_on_a_mesh_without_padding_and_no_particle_crosses_the_floo
     for case, result in zip((column, slope), results):
         final = result.positions[-1]
         length = case.nodes[:, 0].max()
-        print(f"{case.directory.name}: {result.status}, front {final[:, 0].max():.2f} m, lowest y {final[:, 1].min():.4f} m")
+        print(
+            f"{case.directory.name}: {result.status}, front {final[:, 0].max():.2f} m, lowest y {final[:, 1].min():.4f} m"
+        )
         assert result.status == "ok"
         assert (result.positions[..., 1] >= 0).all() and (result.positions[..., 0] >= 0).all()
         assert (result.positions[..., 0] <= length).all()
@@ -250,8 +310,9 @@ def test_a_particle_pushed_out_of_the_region_is_flagged_diverged(tmp_path):
 def test_a_slope_limit_equilibrium_says_must_fail_fails_at_one_metre_cells_with_bsplines_not_with_bilinear(tmp_path):
     """Volumetric locking: the 39.8-degree long slope at phi 34 (infinite-slope FS = tan 34 / tan 39.8 = 0.81)
     stands on the bilinear 1 m mesh with 2 x 2 points per cell, and runs out with the default B-splines."""
-    case = polygon_case(tmp_path / "slope", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0,
-                        friction_deg=34.0)
+    case = polygon_case(
+        tmp_path / "slope", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0, friction_deg=34.0
+    )
     fronts = {}
     for shape in ("linear", "bspline"):
         result = run_batch([case], EngineSettings(shape_function=shape), duration_s=6.0)[0]

@@ -1,10 +1,18 @@
 """The multi-fidelity control-variate estimator: unbiased, covers, reduces to its limits."""
+
 import numpy as np
 import pytest
 from scipy import stats
 
-from rgns.multifidelity import (MultiFidelityError, allocate, control_variate, exceedance_indicators, optimal_ratio,
-                                speedup, variance_factor)
+from rgns.multifidelity import (
+    MultiFidelityError,
+    allocate,
+    control_variate,
+    exceedance_indicators,
+    optimal_ratio,
+    speedup,
+    variance_factor,
+)
 
 TRUE_MEAN = 5.0
 THRESHOLD = 6.2816  # P(H > 6.2816) = 0.1 for H ~ N(5, 1)
@@ -14,7 +22,7 @@ RHO = 0.9
 def synthetic(rng: np.random.Generator, n: int, big_n: int) -> tuple[np.ndarray, np.ndarray]:
     """High fidelity H ~ N(5, 1); low fidelity biased (+1.5, scaled 0.8) with correlation RHO."""
     h = rng.normal(TRUE_MEAN, 1.0, big_n)
-    low = 0.8 * (RHO * (h - TRUE_MEAN) + np.sqrt(1 - RHO ** 2) * rng.normal(size=big_n)) + TRUE_MEAN + 1.5
+    low = 0.8 * (RHO * (h - TRUE_MEAN) + np.sqrt(1 - RHO**2) * rng.normal(size=big_n)) + TRUE_MEAN + 1.5
     return h[:n], low
 
 
@@ -45,8 +53,10 @@ def test_unbiased_and_covers_on_biased_correlated_pairs_over_many_replicates():
 def test_variance_matches_the_mfmc_formula():
     rng = np.random.default_rng(2)
     n, big_n = 30, 300
-    means = [control_variate(h[:, None], low[:, None], resamples=9).estimate[0]
-             for h, low in (synthetic(rng, n, big_n) for _ in range(1500))]
+    means = [
+        control_variate(h[:, None], low[:, None], resamples=9).estimate[0]
+        for h, low in (synthetic(rng, n, big_n) for _ in range(1500))
+    ]
     expected = 1.0 / n * variance_factor(big_n / n, RHO)
     assert np.var(means, ddof=1) == pytest.approx(expected, rel=0.12)
     assert expected < 0.3 / n  # 1 - 0.9 * 0.81 = 0.27: 3.7x below the n high-fidelity runs alone
@@ -68,8 +78,9 @@ def test_with_a_perfect_low_fidelity_model_the_interval_is_that_of_n_high_fideli
     result = control_variate(values[:40, None], values[:, None], resamples=4000, seed=0)
     assert result.estimate[0] == pytest.approx(values.mean(), abs=1e-12)
     assert result.weight[0] == pytest.approx(1.0)
-    plain = stats.bootstrap((values,), np.mean, n_resamples=4000, method="percentile",
-                            random_state=np.random.default_rng(0))
+    plain = stats.bootstrap(
+        (values,), np.mean, n_resamples=4000, method="percentile", random_state=np.random.default_rng(0)
+    )
     assert result.upper[0] - result.lower[0] == pytest.approx(np.ptp(plain.confidence_interval), rel=0.1)
     # ... and much narrower than the 40 paired runs alone
     alone = control_variate(values[:40, None], values[:40, None], resamples=4000, seed=0)
@@ -102,7 +113,7 @@ def test_a_tail_no_pair_reaches_keeps_the_cheap_runs():
 
 def test_allocation_follows_the_mfmc_optimum():
     assert optimal_ratio(7.3, 1.0, 0.0) == 1.0
-    assert optimal_ratio(100.0, 1.0, 0.99) == pytest.approx(np.sqrt(100 * 0.99 ** 2 / (1 - 0.99 ** 2)))
+    assert optimal_ratio(100.0, 1.0, 0.99) == pytest.approx(np.sqrt(100 * 0.99**2 / (1 - 0.99**2)))
     assert speedup(7.3, 1.0, 0.0) < 1.0  # an uncorrelated cheap model only costs
     assert speedup(100.0, 1.0, 0.999) > 10.0
     plan = allocate(7.3, 1.0, 0.9, std_high=2.0, half_width=0.2)
@@ -114,12 +125,15 @@ def test_allocation_follows_the_mfmc_optimum():
     assert capped.n_high == 10 and z * np.sqrt(capped.variance) > 0.2
 
 
-@pytest.mark.parametrize("high, low, message", [
-    (np.ones((1, 1)), np.ones((5, 1)), "at least 2 paired"),
-    (np.ones((6, 1)), np.ones((5, 1)), "at least 2 paired"),
-    (np.ones((3, 2)), np.ones((5, 1)), "differ in shape"),
-    (np.array([[1.0], [np.nan]]), np.ones((5, 1)), "NaN"),
-])
+@pytest.mark.parametrize(
+    "high, low, message",
+    [
+        (np.ones((1, 1)), np.ones((5, 1)), "at least 2 paired"),
+        (np.ones((6, 1)), np.ones((5, 1)), "at least 2 paired"),
+        (np.ones((3, 2)), np.ones((5, 1)), "differ in shape"),
+        (np.array([[1.0], [np.nan]]), np.ones((5, 1)), "NaN"),
+    ],
+)
 def test_bad_input_is_named(high, low, message):
     with pytest.raises(MultiFidelityError, match=message):
         control_variate(high, low)

@@ -1,4 +1,5 @@
 """The multi-fidelity correction of a case's tables: what the rule multifidelity writes."""
+
 import json
 
 import numpy as np
@@ -9,17 +10,32 @@ from rgns.hazard import ZONE_LEVELS
 from rgns.multifidelity import MultiFidelityError
 from rgns.multifidelity_outputs import correct, write_multifidelity
 
-SETTINGS = {"confidence": 0.95, "high_cell_size_m": 0.5, "exceedance_probabilities": [0.5, 0.1],
-            "domain": {"length_m": 60.0}, "resolution_m": 0.5, "thresholds": [0.9, 0.5, 0.1, 0.01],
-            "target_half_width_m": 0.5}
+SETTINGS = {
+    "confidence": 0.95,
+    "high_cell_size_m": 0.5,
+    "exceedance_probabilities": [0.5, 0.1],
+    "domain": {"length_m": 60.0},
+    "resolution_m": 0.5,
+    "thresholds": [0.9, 0.5, 0.1, 0.01],
+    "target_half_width_m": 0.5,
+}
 COST = {"low_s": 2.0, "high_s": 20.0}
 
 
 def table(runout: np.ndarray, status: str = "ok") -> pd.DataFrame:
     """A Monte Carlo table: toe at 30 m, the front R beyond it, the back scarp 0.4 R behind the crest at 20 m."""
     n = runout.size
-    return pd.DataFrame({"index": np.arange(n), "status": status, "runout_m": runout, "volume_m2": 10 * runout,
-                         "influence_m": 0.4 * runout, "front_x_m": 30.0 + runout, "rear_x_m": 20.0 - 0.4 * runout})
+    return pd.DataFrame(
+        {
+            "index": np.arange(n),
+            "status": status,
+            "runout_m": runout,
+            "volume_m2": 10 * runout,
+            "influence_m": 0.4 * runout,
+            "front_x_m": 30.0 + runout,
+            "rear_x_m": 20.0 - 0.4 * runout,
+        }
+    )
 
 
 def test_a_shifted_cheap_route_is_corrected_to_the_accurate_mean():
@@ -69,15 +85,17 @@ def test_with_a_separate_control_the_monte_carlo_keeps_its_own_means_and_curves(
     accurate = rng.gamma(4.0, 2.0, 100)
     control, simulator = accurate - 0.5 + rng.normal(0, 0.2, 100), 0.8 * accurate
     outputs = {"json": str(tmp_path / "m.json"), "figure": str(tmp_path / "m.png")}
-    record = write_multifidelity(table(control), table(accurate[:16]), SETTINGS, COST, outputs, "case1",
-                                 simulator=table(simulator))
+    record = write_multifidelity(
+        table(control), table(accurate[:16]), SETTINGS, COST, outputs, "case1", simulator=table(simulator)
+    )
     alone = correct(table(control), table(accurate[:16]), SETTINGS, COST)
     assert record["means"] == alone["means"] and not record["cheap_is_simulator"]
     assert record["simulator_means"]["runout_m"] == pytest.approx(simulator.mean())
     curve = record["exceedance"]["runout_m"]
     # the Monte Carlo's distances by the exceedance table's estimator (the linear empirical quantile)
     assert curve["simulator"][0] == 1.0 and curve["distances"]["0.5"]["simulator"] == pytest.approx(
-        np.quantile(simulator, 0.5), abs=1e-12)
+        np.quantile(simulator, 0.5), abs=1e-12
+    )
     plain = write_multifidelity(table(control), table(accurate[:16]), SETTINGS, COST, outputs, "case1")
     assert plain["cheap_is_simulator"] and plain["simulator_means"]["runout_m"] == pytest.approx(control.mean())
 
@@ -131,14 +149,16 @@ def noisy_pair(rng: np.random.Generator, n: int, noise: float) -> tuple[np.ndarr
 
 def test_the_plan_pairs_whole_chunks_until_the_predicted_half_width_reaches_the_target():
     from scipy import stats
+
     from rgns.multifidelity_outputs import plan_pairs
+
     accurate, cheap = noisy_pair(np.random.default_rng(7), 200, 1.0)
     plan = plan_pairs(table(cheap), table(accurate[:16]), PLAN)
     assert plan["pilot"] == 16 and plan["n_low"] == 200 and plan["reached"]
     assert plan["n_paired"] % 16 == 0 and plan["n_paired"] >= plan["needed"] > plan["n_paired"] - 16
     std, rho = plan["std_m"], plan["correlation"]
     z = stats.norm.ppf(0.975)
-    at = lambda n: z * std * np.sqrt((1 - rho ** 2) / n + rho ** 2 / 200)  # noqa: E731
+    at = lambda n: z * std * np.sqrt((1 - rho**2) / n + rho**2 / 200)  # noqa: E731
     assert at(plan["n_paired"]) <= 0.5 < at(plan["n_paired"] - 16)  # the fewest whole chunks that reach it
     loose = plan_pairs(table(cheap), table(accurate[:16]), PLAN | {"target_half_width_m": 5.0})
     assert loose["n_paired"] == 16 and loose["reached"]  # the pilot already does
@@ -146,6 +166,7 @@ def test_the_plan_pairs_whole_chunks_until_the_predicted_half_width_reaches_the_
 
 def test_a_plan_beyond_the_cap_or_the_cheap_runs_says_so():
     from rgns.multifidelity_outputs import plan_pairs
+
     accurate, cheap = noisy_pair(np.random.default_rng(8), 200, 1.0)
     capped = plan_pairs(table(cheap), table(accurate[:16]), PLAN | {"max_paired": 20})
     assert capped["n_paired"] == 32 and not capped["reached"] and capped["needed"] > 32  # the cap in whole chunks

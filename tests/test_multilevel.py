@@ -1,5 +1,6 @@
 """The multilevel estimator over nested fidelities and its Richardson step: reduces to its limits,
 unbiased and covering over many replicates of synthetic chains with a known answer."""
+
 import numpy as np
 import pytest
 
@@ -58,7 +59,7 @@ def mesh_chain(rng: np.random.Generator, counts: tuple[int, ...], order: float =
     size = counts[-1]
     converged = rng.normal(TRUE_MEAN, 1.0, size)
     scale = 1.0 + 0.2 * rng.normal(size=size)
-    fine, coarse = converged - 2.0 * 0.25 ** order * scale, converged - 2.0 * 0.5 ** order * scale
+    fine, coarse = converged - 2.0 * 0.25**order * scale, converged - 2.0 * 0.5**order * scale
     cheap = coarse + 0.3 + 0.3 * rng.normal(size=size)
     return [f[:n, None] for f, n in zip((fine, coarse, cheap), counts)]
 
@@ -69,8 +70,9 @@ def test_the_richardson_step_recovers_the_converged_answer_that_the_finest_mesh_
     replicates = 200
     finest_covered, covered, estimates = [], [], []
     for k in range(replicates):
-        result = extrapolated(mesh_chain(rng, (16, 64, 512)), ratio=2.0, order=1.3, order_interval=(1.1, 1.5),
-                              resamples=999, seed=k)
+        result = extrapolated(
+            mesh_chain(rng, (16, 64, 512)), ratio=2.0, order=1.3, order_interval=(1.1, 1.5), resamples=999, seed=k
+        )
         estimates.append(result.estimate[0])
         covered.append(result.lower[0] <= TRUE_MEAN <= result.upper[0])
         finest_covered.append(result.finest.lower[0] <= TRUE_MEAN <= result.finest.upper[0])
@@ -81,12 +83,15 @@ def test_the_richardson_step_recovers_the_converged_answer_that_the_finest_mesh_
     assert np.mean(finest_covered) < 0.5  # the 0.25 m mesh alone is 0.33 short: its interval misses
 
 
-@pytest.mark.parametrize("levels, message", [
-    ([np.ones((1, 1))], "at least 2 realizations"),
-    ([np.ones((4, 1)), np.ones((3, 1))], "nested"),
-    ([np.ones((4, 1)), np.ones((8, 2))], "differ in their quantities"),
-    ([np.ones((4, 1)), np.full((8, 1), np.nan)], "level 1 holds NaN"),
-])
+@pytest.mark.parametrize(
+    "levels, message",
+    [
+        ([np.ones((1, 1))], "at least 2 realizations"),
+        ([np.ones((4, 1)), np.ones((3, 1))], "nested"),
+        ([np.ones((4, 1)), np.ones((8, 2))], "differ in their quantities"),
+        ([np.ones((4, 1)), np.full((8, 1), np.nan)], "level 1 holds NaN"),
+    ],
+)
 def test_bad_input_is_named(levels, message):
     with pytest.raises(MultiFidelityError, match=message):
         multilevel(levels)

@@ -1,5 +1,6 @@
 """What made a result: the config digest changes with any value and not with key order; the commit
 of this checkout; a directory that is no checkout says so."""
+
 from rgns.provenance import commit, config_digest, provenance
 
 

@@ -1,4 +1,5 @@
 """Limit-equilibrium screen: Bishop's minimum FS against the infinite slope, Taylor's chart and symmetry."""
+
 from __future__ import annotations
 
 import math
@@ -15,12 +16,18 @@ SLOPE = np.array([[0.0, 0.0], [36.0, 0.0], [24.0, 10.0], [0.0, 10.0]])  # the lo
 FACE_TAN = 10.0 / 12.0
 
 
-def _screen(vertices: np.ndarray, friction_deg, cohesion: float = 1.0, settings: ScreenSettings | None = None,
-            domain_length_m: float = DOMAIN_LENGTH_M) -> ScreenResult:
+def _screen(
+    vertices: np.ndarray,
+    friction_deg,
+    cohesion: float = 1.0,
+    settings: ScreenSettings | None = None,
+    domain_length_m: float = DOMAIN_LENGTH_M,
+) -> ScreenResult:
     positions, _ = seed_particles(vertices, 1.0, 2)
     friction = friction_deg(positions) if callable(friction_deg) else np.full(len(positions), float(friction_deg))
-    return minimum_factor_of_safety(vertices, positions, friction, 1.0, GAMMA, cohesion,
-                                    settings or ScreenSettings(), domain_length_m)
+    return minimum_factor_of_safety(
+        vertices, positions, friction, 1.0, GAMMA, cohesion, settings or ScreenSettings(), domain_length_m
+    )
 
 
 def _infinite_slope(phi_deg: float) -> float:
@@ -94,8 +101,7 @@ def test_mirrored_slope_and_field_give_the_same_fs():
     mirrored_positions = np.column_stack([DOMAIN_LENGTH_M - positions[:, 0], positions[:, 1]])
     settings = ScreenSettings()
     right = minimum_factor_of_safety(SLOPE, positions, friction, 1.0, GAMMA, 1.0, settings, DOMAIN_LENGTH_M)
-    left = minimum_factor_of_safety(mirrored, mirrored_positions, friction, 1.0, GAMMA, 1.0, settings,
-                                    DOMAIN_LENGTH_M)
+    left = minimum_factor_of_safety(mirrored, mirrored_positions, friction, 1.0, GAMMA, 1.0, settings, DOMAIN_LENGTH_M)
     assert left.factor_of_safety == pytest.approx(right.factor_of_safety, rel=1e-6)
     assert left.centre[0] == pytest.approx(DOMAIN_LENGTH_M - right.centre[0])
     mirrored_ends = (DOMAIN_LENGTH_M - right.entry_x, DOMAIN_LENGTH_M - right.exit_x)
@@ -110,8 +116,10 @@ def test_embankment_fails_on_its_weaker_face():
 
 
 def test_deeper_minimum_depth_never_lowers_fs():
-    fs = [_screen(SLOPE, 30.0, settings=ScreenSettings(min_depth_m=depth)).factor_of_safety
-          for depth in (0.25, 1.0, 2.0, 4.0)]
+    fs = [
+        _screen(SLOPE, 30.0, settings=ScreenSettings(min_depth_m=depth)).factor_of_safety
+        for depth in (0.25, 1.0, 2.0, 4.0)
+    ]
     assert fs == sorted(fs)
     assert fs[0] == pytest.approx(_infinite_slope(30.0), rel=0.01)
 

@@ -1,5 +1,6 @@
 """The GNS shipped with the package: it serves the default config, keeps standing slopes standing,
 and gives the same Monte Carlo table on every run."""
+
 from __future__ import annotations
 
 import copy
@@ -8,13 +9,13 @@ from dataclasses import replace
 import pandas as pd
 import pytest
 import torch
+from conftest import REPO
 
 from rgns.config import load_config
 from rgns.gns.train import load_simulator
 from rgns.montecarlo import RunSettings, run_realizations
 from rgns.realizations import CaseInputs
 from rgns.shipped import MODELS, ShippedModelError, check_serves, read_card
-from conftest import REPO
 
 DEFAULT = load_config(REPO / "config" / "config.yaml")
 

@@ -1,18 +1,19 @@
 """The procedural slope generator: every family it draws is a valid body the engine runs, each kind
 has the shape it promises, and a draw is a function of its seed alone."""
+
 from __future__ import annotations
 
 import copy
 
 import numpy as np
 import pytest
+from conftest import REPO
 
 from rgns.config import load_config, load_yaml, validate_config
 from rgns.endstate.data import simulate_end_states
 from rgns.geometry import build_scene, polygon_problems
 from rgns.realizations import CaseInputs, mean_vertices
 from rgns.slope_generator import GeneratorError, generate_vertices
-from conftest import REPO
 
 PRETRAIN = load_config(REPO / "config" / "pretrain_general.yaml")
 FAMILIES = {name: family for name, family in PRETRAIN["geometry"]["families"].items() if "generator" in family}
@@ -26,8 +27,12 @@ def test_every_draw_is_a_valid_body_inside_the_domain(name):
     material point inside the domain and above the floor, resting on the floor."""
     for index in range(100):
         scene = build_scene(name, index, name, FAMILIES[name], DOMAIN, MESH, GEOMETRY, seed=11)
-        assert polygon_problems(scene.vertices, DOMAIN["length_m"], DOMAIN["height_m"],
-                                GEOMETRY["runout_room_m"], MESH["cell_size_m"]) == []
+        assert (
+            polygon_problems(
+                scene.vertices, DOMAIN["length_m"], DOMAIN["height_m"], GEOMETRY["runout_room_m"], MESH["cell_size_m"]
+            )
+            == []
+        )
         assert scene.vertices[:, 1].min() == 0.0
         points = scene.positions
         assert len(points) > 0
@@ -43,8 +48,16 @@ def test_the_kinds_have_their_shapes():
     assert wall[:, 0].min() == 0.0
     for name in ("gen_slope_free", "gen_embankment"):
         assert generate_vertices(name, FAMILIES[name], rng)[:, 0].min() >= GEOMETRY["runout_room_m"]
-    base = {"height_m": 10.0, "face_angle_deg": 45.0, "bench_width_m": 3.0, "crest_length_m": 10.0,
-            "crest_tilt_deg": 0.0, "free_rear": 0.0, "back_angle_deg": 30.0, "rear_x_m": 15.0}
+    base = {
+        "height_m": 10.0,
+        "face_angle_deg": 45.0,
+        "bench_width_m": 3.0,
+        "crest_length_m": 10.0,
+        "crest_tilt_deg": 0.0,
+        "free_rear": 0.0,
+        "back_angle_deg": 30.0,
+        "rear_x_m": 15.0,
+    }
 
     def face_angles(curvature: float, benches: int) -> list[float]:
         family = {"generator": "slope", "params": base | {"curvature": curvature, "benches": benches}}
@@ -90,7 +103,8 @@ def test_a_generated_family_names_a_missing_or_unknown_parameter():
     with pytest.raises(ValueError) as error:
         validate_config(config)
     assert "'geometry.families.gen_embankment.params': lacks 'height_m'" in str(error.value)
-    assert "'geometry.families.gen_embankment.params.heigth_m': generator 'embankment' has no such parameter" \
-        in str(error.value)
+    assert "'geometry.families.gen_embankment.params.heigth_m': generator 'embankment' has no such parameter" in str(
+        error.value
+    )
     with pytest.raises(GeneratorError, match="params lacks .*height_m"):
         generate_vertices("gen_embankment", {"generator": "embankment", "params": {}}, np.random.default_rng(0))

@@ -1,4 +1,5 @@
 """The tiny DAG through a real single-node SLURM cluster with profiles/slurm, to completion."""
+
 from __future__ import annotations
 
 import re
@@ -6,7 +7,6 @@ import subprocess
 
 import pytest
 import yaml
-
 from conftest import REPO, TINY_CONFIG
 from slurm_cluster import PARTITION, down, missing, up
 from workflow_helpers import snakemake
@@ -18,8 +18,10 @@ pytestmark = [pytest.mark.workflow, pytest.mark.slurm]
 def cluster(tmp_path_factory):
     absent = missing()
     if absent:
-        pytest.skip(f"no single-node SLURM here: missing {', '.join(absent)} "
-                    "(apt-get install slurmctld slurmd slurm-client munge, as root)")
+        pytest.skip(
+            f"no single-node SLURM here: missing {', '.join(absent)} "
+            "(apt-get install slurmctld slurmd slurm-client munge, as root)"
+        )
     base = tmp_path_factory.mktemp("slurm")
     up(base)
     yield base
@@ -34,8 +36,12 @@ def site_profile(directory, partition: str) -> dict:
     del profile["default-resources"]["slurm_account"]
     for resources in profile["set-resources"].values():
         resources["mem_mb"] = min(resources.get("mem_mb", 0), 2000) or 2000
-    profile |= {"cores": 2, "latency-wait": 5, "slurm-status-command": "squeue",
-                "slurm-init-seconds-before-status-checks": 5}
+    profile |= {
+        "cores": 2,
+        "latency-wait": 5,
+        "slurm-status-command": "squeue",
+        "slurm-init-seconds-before-status-checks": 5,
+    }
     directory.mkdir(parents=True, exist_ok=True)
     (directory / "config.yaml").write_text(yaml.safe_dump(profile))
     return profile
@@ -46,18 +52,30 @@ def test_the_tiny_workflow_runs_to_the_report_through_slurm_with_the_profile(clu
     assert profile["executor"] == "slurm" and "prepare=100" in profile["group-components"]
     workdir = tmp_path / "run"
     workdir.mkdir()
-    result = snakemake(workdir, "hazard_map", "--profile", str(tmp_path / "profile"), config=TINY_CONFIG,
-                       timeout=1200)
+    result = snakemake(workdir, "hazard_map", "--profile", str(tmp_path / "profile"), config=TINY_CONFIG, timeout=1200)
     output = result.stdout + result.stderr
     assert result.returncode == 0, output[-5000:]
     assert (workdir / "results" / "report" / "report.html").exists()
-    submitted = {int(job): rule for job, rule in re.findall(
-        r"Job \S+ has been submitted with SLURM jobid (\d+) \(log: \S+/slurm_logs/(\w+?)/", output)}
+    submitted = {
+        int(job): rule
+        for job, rule in re.findall(
+            r"Job \S+ has been submitted with SLURM jobid (\d+) \(log: \S+/slurm_logs/(\w+?)/", output
+        )
+    }
     kinds = sorted(set(submitted.values()))
     # every per-realization step of the 5 realizations went in one grouped job; light steps ran locally
-    assert kinds == ["group_prepare_geometry_mpm_input_random_field_scene_preview", "rule_gns_export", "rule_mc_chunk",
-                     "rule_mc_mean_field", "rule_mc_paired_chunk", "rule_mpm_run", "rule_pack", "rule_train", "rule_validate",
-                     "rule_validation_rollout"], kinds
+    assert kinds == [
+        "group_prepare_geometry_mpm_input_random_field_scene_preview",
+        "rule_gns_export",
+        "rule_mc_chunk",
+        "rule_mc_mean_field",
+        "rule_mc_paired_chunk",
+        "rule_mpm_run",
+        "rule_pack",
+        "rule_train",
+        "rule_validate",
+        "rule_validation_rollout",
+    ], kinds
     assert list(submitted.values()).count("group_prepare_geometry_mpm_input_random_field_scene_preview") == 1
     for job in submitted:  # finished jobs stay visible for MinJobAge = 600 s
         state = subprocess.run(["scontrol", "show", "job", str(job)], capture_output=True, text=True).stdout

@@ -1,4 +1,5 @@
 """The trajectory format: round trips, packing with per-frame statistics, gns export, ParaView."""
+
 from __future__ import annotations
 
 import json
@@ -26,17 +27,25 @@ from rgns.trajectories import (
 FRAMES, PARTICLES = 12, 30
 
 
-def make_trajectory(index: int, velocity=(0.0, 0.0), acceleration=(0.0, 0.0), frame_interval_s=0.025,
-                    particles=PARTICLES, frames=FRAMES) -> Trajectory:
+def make_trajectory(
+    index: int, velocity=(0.0, 0.0), acceleration=(0.0, 0.0), frame_interval_s=0.025, particles=PARTICLES, frames=FRAMES
+) -> Trajectory:
     """Particles on a line moving with a constant per-frame velocity and acceleration."""
     start = np.column_stack([np.linspace(1.0, 5.0, particles), np.full(particles, 2.0)])
     t = np.arange(frames, dtype=float)[:, None, None]
     positions = start[None] + np.asarray(velocity) * t + 0.5 * np.asarray(acceleration) * t * (t - 1)
     return Trajectory(
-        positions=positions, time_s=np.arange(frames) * frame_interval_s,
-        particle_type=np.full(particles, SOIL), friction_deg=np.linspace(20.0, 40.0, particles),
-        volume_m2=np.full(particles, 0.25), mass_kg=np.full(particles, 450.0), frame_interval_s=frame_interval_s,
-        bounds=np.array([[0.0, 40.0], [0.0, 10.0]]), engine="test", set_name="train", index=index,
+        positions=positions,
+        time_s=np.arange(frames) * frame_interval_s,
+        particle_type=np.full(particles, SOIL),
+        friction_deg=np.linspace(20.0, 40.0, particles),
+        volume_m2=np.full(particles, 0.25),
+        mass_kg=np.full(particles, 450.0),
+        frame_interval_s=frame_interval_s,
+        bounds=np.array([[0.0, 40.0], [0.0, 10.0]]),
+        engine="test",
+        set_name="train",
+        index=index,
         provenance={"seed": 7},
     )
 
@@ -74,13 +83,15 @@ def test_a_truncated_trajectory_file_is_reported_by_name(tmp_path):
 
 def test_statistics_are_per_frame_differences_whatever_the_frame_interval():
     for interval in (0.025, 1.0):
-        stats = motion_statistics([make_trajectory(0, velocity=(0.02, -0.01), acceleration=(0.001, -0.003),
-                                                   frame_interval_s=interval)])
+        stats = motion_statistics(
+            [make_trajectory(0, velocity=(0.02, -0.01), acceleration=(0.001, -0.003), frame_interval_s=interval)]
+        )
         np.testing.assert_allclose(stats.acceleration_mean, [0.001, -0.003], rtol=1e-3)
         np.testing.assert_allclose(stats.acceleration_std, 0.0, atol=1e-6)
         # velocity x[t] - x[t-1] = v + a·(t-1) for t = 1..T-1: mean v + a·(T-2)/2
-        np.testing.assert_allclose(stats.velocity_mean, np.array([0.02, -0.01]) + np.array([0.001, -0.003]) * (FRAMES - 2) / 2,
-                                   rtol=1e-3)
+        np.testing.assert_allclose(
+            stats.velocity_mean, np.array([0.02, -0.01]) + np.array([0.001, -0.003]) * (FRAMES - 2) / 2, rtol=1e-3
+        )
 
 
 def test_packing_several_trajectories_keeps_each_and_the_pooled_statistics(tmp_path):
@@ -128,8 +139,18 @@ def test_gns_export_reloads_with_expected_shapes_and_metadata(tmp_path):
     with np.load(tmp_path / "gns" / "valid.npz", allow_pickle=True) as data:
         assert data.files == ["simulation_trajectory_0"]
     metadata = json.loads((tmp_path / "gns" / "metadata.json").read_text())
-    assert {"bounds", "sequence_length", "default_connectivity_radius", "dim", "dt", "vel_mean", "vel_std",
-            "acc_mean", "acc_std", "material_property"} <= set(metadata)
+    assert {
+        "bounds",
+        "sequence_length",
+        "default_connectivity_radius",
+        "dim",
+        "dt",
+        "vel_mean",
+        "vel_std",
+        "acc_mean",
+        "acc_std",
+        "material_property",
+    } <= set(metadata)
     assert metadata["sequence_length"] == FRAMES - 1 and metadata["dim"] == 2 and metadata["dt"] == 0.025
     np.testing.assert_allclose(metadata["vel_mean"], [0.01, 0.0], atol=1e-7)
 

@@ -1,4 +1,5 @@
 """GNS-vs-MPM validation: agreement statistics, bootstrap CI, case summary, table and figures."""
+
 from __future__ import annotations
 
 import math
@@ -27,14 +28,19 @@ def _pairs(n: int, seed: int, statuses: list[str] | None = None) -> pd.DataFrame
     runout = rng.uniform(5.0, 50.0, n)
     volume = rng.uniform(10.0, 200.0, n)
     influence = rng.uniform(1.0, 20.0, n)
-    return pd.DataFrame({
-        "index": np.arange(n) * 10,
-        "gns_status": statuses if statuses is not None else ["ok"] * n,
-        "runout_m_mpm": runout, "runout_m_gns": runout + rng.normal(0.0, 1.0, n),
-        "volume_m2_mpm": volume, "volume_m2_gns": volume + rng.normal(0.0, 5.0, n),
-        "influence_m_mpm": influence, "influence_m_gns": influence + rng.normal(0.0, 0.5, n),
-        "final_position_mse_m2": 0.01 * runout ** 2,
-    })
+    return pd.DataFrame(
+        {
+            "index": np.arange(n) * 10,
+            "gns_status": statuses if statuses is not None else ["ok"] * n,
+            "runout_m_mpm": runout,
+            "runout_m_gns": runout + rng.normal(0.0, 1.0, n),
+            "volume_m2_mpm": volume,
+            "volume_m2_gns": volume + rng.normal(0.0, 5.0, n),
+            "influence_m_mpm": influence,
+            "influence_m_gns": influence + rng.normal(0.0, 0.5, n),
+            "final_position_mse_m2": 0.01 * runout**2,
+        }
+    )
 
 
 def test_identical_predictions_agree_perfectly():
@@ -54,7 +60,7 @@ def test_constant_offset_gives_exact_bias_zero_width_ci_and_hand_r2_nrmse():
     ss_tot = float(np.sum((MPM_RUNOUT_M - MPM_RUNOUT_M.mean()) ** 2))
     assert result.bias == offset_m
     assert (result.bias_low, result.bias_high) == (offset_m, offset_m)
-    assert result.r2 == pytest.approx(1.0 - MPM_RUNOUT_M.size * offset_m ** 2 / ss_tot, rel=1e-12)
+    assert result.r2 == pytest.approx(1.0 - MPM_RUNOUT_M.size * offset_m**2 / ss_tot, rel=1e-12)
     assert result.nrmse == pytest.approx(offset_m / (MPM_RUNOUT_M.max() - MPM_RUNOUT_M.min()), rel=1e-12)
     assert result.relative_bias == pytest.approx(offset_m / MPM_RUNOUT_M.mean(), rel=1e-12)
 
@@ -115,21 +121,37 @@ def test_spearman_is_nan_without_warning_for_constant_or_too_few_rows():
 
 
 def test_best_median_worst_picks_indices_by_final_position_mse_among_ok_rows():
-    pairs = pd.DataFrame({
-        "index": [3, 7, 11, 19, 23, 31],
-        "gns_status": ["ok", "ok", "diverged: NaN", "ok", "ok", "ok"],
-        "final_position_mse_m2": [0.5, 0.1, 0.0, 2.0, 0.9, 0.3],
-    })
+    pairs = pd.DataFrame(
+        {
+            "index": [3, 7, 11, 19, 23, 31],
+            "gns_status": ["ok", "ok", "diverged: NaN", "ok", "ok", "ok"],
+            "final_position_mse_m2": [0.5, 0.1, 0.0, 2.0, 0.9, 0.3],
+        }
+    )
     # ok rows sorted by MSE: 7 (0.1), 31 (0.3), 3 (0.5), 23 (0.9), 19 (2.0); median at position 5 // 2 = 2
     assert best_median_worst(pairs) == {"best": 7, "median": 3, "worst": 19}
 
 
 def test_validation_table_has_one_row_per_case_and_metric():
-    agreements = {case: case_agreement(_pairs(6, seed), case, bootstrap=50)[0]
-                  for seed, case in enumerate(["case1", "case2"])}
+    agreements = {
+        case: case_agreement(_pairs(6, seed), case, bootstrap=50)[0] for seed, case in enumerate(["case1", "case2"])
+    }
     table = validation_table(agreements)
-    assert list(table.columns) == ["case", "metric", "n", "r2", "r2_low", "r2_high", "nrmse", "bias", "bias_low", "bias_high",
-                                   "relative_bias", "mpm_mean", "gns_mean"]
+    assert list(table.columns) == [
+        "case",
+        "metric",
+        "n",
+        "r2",
+        "r2_low",
+        "r2_high",
+        "nrmse",
+        "bias",
+        "bias_low",
+        "bias_high",
+        "relative_bias",
+        "mpm_mean",
+        "gns_mean",
+    ]
     assert list(zip(table["case"], table["metric"])) == [(c, m) for c in ["case1", "case2"] for m in METRICS]
     assert (table["n"] == 6).all()
 
@@ -150,8 +172,7 @@ def test_each_plot_writes_a_non_empty_png(tmp_path):
     time_s = np.linspace(0.0, 2.0, 20)
     decay = np.exp(-time_s)[None, :, None]
     mpm = np.concatenate([decay, 0.2 * (1 - decay), 0.8 * (1 - decay)], axis=2).repeat(5, axis=0)
-    energies = {"time_s": time_s, "index": pairs_by_case["case1"]["index"].to_numpy(),
-                "mpm": mpm, "gns": mpm * 1.05}
+    energies = {"time_s": time_s, "index": pairs_by_case["case1"]["index"].to_numpy(), "mpm": mpm, "gns": mpm * 1.05}
     paths = [tmp_path / name for name in ("histograms.png", "parity.png", "energy.png")]
     plot_histograms(pairs_by_case, paths[0])
     plot_parity(pairs_by_case, paths[1])
@@ -165,6 +186,7 @@ def test_the_figures_name_the_simulator_that_ran_and_show_no_path_it_has_not(tmp
     """With the end-state surrogate: its name on the parity axes and in the legends, and its energies
     as start and end points (NaN between), no dashed curve."""
     import rgns.validation_plots as plots
+
     kept = []
     monkeypatch.setattr(plots.plt, "close", kept.append)
     pairs_by_case = {"case1": _pairs(5, seed=4)}
@@ -174,8 +196,9 @@ def test_the_figures_name_the_simulator_that_ran_and_show_no_path_it_has_not(tmp
     ends[:, [0, -1]] = mpm[:, [0, -1]]
     energies = {"time_s": time_s, "index": pairs_by_case["case1"]["index"].to_numpy(), "mpm": mpm, "gns": ends}
     plot_parity(pairs_by_case, tmp_path / "parity.png", "end-state surrogate")
-    plot_energy_evolution(energies, best_median_worst(pairs_by_case["case1"]), "case1", tmp_path / "energy.png",
-                          "end-state surrogate")
+    plot_energy_evolution(
+        energies, best_median_worst(pairs_by_case["case1"]), "case1", tmp_path / "energy.png", "end-state surrogate"
+    )
     parity, energy = kept
     assert parity.axes[0].get_ylabel().startswith("end-state surrogate")
     labels = [text.get_text() for text in energy.axes[0].get_legend().get_texts()]

@@ -1,4 +1,5 @@
 """The real Snakemake workflow on the tiny config: DAG, bad-config stop, targeted reruns."""
+
 from __future__ import annotations
 
 import copy
@@ -9,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPO, TINY_CONFIG
+from workflow_helpers import scheduled, snakemake, write_config
 
 from rgns.config import load_config, load_yaml
 from rgns.endstate.data import read_end_states
@@ -20,8 +23,6 @@ from rgns.realizations import CaseInputs, draw_realization
 from rgns.sets import format_id
 from rgns.tables import read_csv
 from rgns.trajectories import frame_count, read_packed, read_trajectory
-from conftest import REPO, TINY_CONFIG
-from workflow_helpers import scheduled, snakemake, write_config
 
 pytestmark = pytest.mark.workflow
 
@@ -36,20 +37,34 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
     chunks = sum(-(-size // config["mpm"]["chunk_size"]) for size in sizes)
     montecarlo = config["montecarlo"]
     mc_cases = len(montecarlo["cases"])
-    assert jobs == {"geometry": sum(sizes), "random_field": sum(sizes), "mpm_input": sum(sizes), "mpm_run": chunks,
-                    "pack": len(sizes), "scene_preview": len(sizes), "shipped_endstate": 1,
-                    "validation_rollout": len(cases), "validate": 1,
-                    "mc_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
-                    "mc_mean_field": mc_cases, "mc_collect": mc_cases, "exceedance": mc_cases, "zoning": mc_cases,
-                    "mc_paired_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
-                    "mc_paired_collect": mc_cases, "multifidelity": mc_cases, "report": 1, "hazard_map": 1,
-                    # the pairs again at the Monte Carlo's mesh: the coarser level of the mesh extrapolation
-                    "mc_coarse_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
-                    "mc_coarse_collect": mc_cases,
-                    # the correction's control variate: the shipped tuned surrogate on every realization
-                    "shipped_tuned_endstate": 1,
-                    "mc_control_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
-                    "mc_control_collect": mc_cases}
+    assert jobs == {
+        "geometry": sum(sizes),
+        "random_field": sum(sizes),
+        "mpm_input": sum(sizes),
+        "mpm_run": chunks,
+        "pack": len(sizes),
+        "scene_preview": len(sizes),
+        "shipped_endstate": 1,
+        "validation_rollout": len(cases),
+        "validate": 1,
+        "mc_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
+        "mc_mean_field": mc_cases,
+        "mc_collect": mc_cases,
+        "exceedance": mc_cases,
+        "zoning": mc_cases,
+        "mc_paired_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
+        "mc_paired_collect": mc_cases,
+        "multifidelity": mc_cases,
+        "report": 1,
+        "hazard_map": 1,
+        # the pairs again at the Monte Carlo's mesh: the coarser level of the mesh extrapolation
+        "mc_coarse_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
+        "mc_coarse_collect": mc_cases,
+        # the correction's control variate: the shipped tuned surrogate on every realization
+        "shipped_tuned_endstate": 1,
+        "mc_control_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
+        "mc_control_collect": mc_cases,
+    }
     assert montecarlo["fidelity"]["cheap"] == "tuned"
     assert min(sizes) >= 16  # enough realizations per test case for R² to mean something
 
@@ -66,8 +81,9 @@ def test_training_from_scratch_schedules_the_training_sets_and_the_training(tmp_
 
 def test_a_nested_config_override_with_numbers_works_as_the_readme_writes_it(tmp_path):
     """``--config 'montecarlo={realizations: 320, chunk_size: 32}'`` (Snakemake passes the numbers as text)."""
-    jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map", "--config",
-                               "montecarlo={realizations: 320, chunk_size: 32}"))
+    jobs = scheduled(
+        snakemake(tmp_path, "-n", "hazard_map", "--config", "montecarlo={realizations: 320, chunk_size: 32}")
+    )
     cases = len(load_config(REPO / "config" / "config.yaml")["montecarlo"]["cases"])
     assert jobs["mc_chunk"] == 10 * cases
 
@@ -158,17 +174,26 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     zoning = json.loads((results / "report" / "case1" / "zoning.json").read_text())
     assert zoning["zones"][0]["x_from_m"] == 0.0 and zoning["zones"][-1]["x_to_m"] == config["domain"]["length_m"]
     page = (results / "report" / "report.html").read_text()
-    for heading in ("Validation against MPM", "Hazard: case1 — exceedance", "Hazard: case1 — zoning",
-                    "Multi-fidelity check", "Hazard: case1 — multi-fidelity correction"):
+    for heading in (
+        "Validation against MPM",
+        "Hazard: case1 — exceedance",
+        "Hazard: case1 — zoning",
+        "Multi-fidelity check",
+        "Hazard: case1 — multi-fidelity correction",
+    ):
         assert heading in page
     # the best estimate (corrected) leads the case's hazard; the Monte Carlo's own map follows, named so
-    assert page.index("Hazard: case1 — multi-fidelity correction and mesh extrapolation: the best estimate") < page.index(
-        "Hazard: case1 — exceedance (uncorrected: the Monte Carlo&#x27;s simulator alone)")
+    assert page.index(
+        "Hazard: case1 — multi-fidelity correction and mesh extrapolation: the best estimate"
+    ) < page.index("Hazard: case1 — exceedance (uncorrected: the Monte Carlo&#x27;s simulator alone)")
     assert page.count("<img") == 3 + 1 + 3 + 4  # scenes, learning curve, validation, hazard
     # what made the page, above everything else: version, commit, config digest, time, each case's route
     lead = page.split("<h2>")[0]
-    assert re.search(r"Made by rgns \S+ \(commit [0-9a-f]{10}[^)]*\) from configuration [0-9a-f]{12} \(SHA-256 "
-                     r"prefix\) on \d{4}-\d\d-\d\d \d\d:\d\d UTC\. Monte Carlo: case1: ", lead), lead[-600:]
+    assert re.search(
+        r"Made by rgns \S+ \(commit [0-9a-f]{10}[^)]*\) from configuration [0-9a-f]{12} \(SHA-256 "
+        r"prefix\) on \d{4}-\d\d-\d\d \d\d:\d\d UTC\. Monte Carlo: case1: ",
+        lead,
+    ), lead[-600:]
     # the first `paired` realizations again by the MPM at 0.5 m cells: the same field, a finer mesh
     paired = read_csv(results / "mc" / "case1" / "paired.csv")
     assert list(paired["index"]) == [0, 1] and (paired["n_particles"] == 4 * 120).all()
@@ -194,8 +219,13 @@ def test_a_target_half_width_pairs_the_chunks_the_checkpoint_chose_and_keeps_the
     config["montecarlo"]["fidelity"] = {"paired": 2, "target_half_width_m": 0.001, "max_paired": 4}
     pilot = workdir / "results" / "mc" / "case1" / "paired" / "chunk_000.csv"
     before = pilot.stat().st_mtime_ns
-    result = snakemake(workdir, "--cores", "2", "results/report/case1/multifidelity.json",
-                       config=write_config(tmp_path / "target.yaml", config))
+    result = snakemake(
+        workdir,
+        "--cores",
+        "2",
+        "results/report/case1/multifidelity.json",
+        config=write_config(tmp_path / "target.yaml", config),
+    )
     assert result.returncode == 0, result.stderr
     plan = json.loads((workdir / "results" / "mc" / "case1" / "paired_plan.json").read_text())
     assert (plan["pilot"], plan["n_low"], plan["chunks"], plan["n_paired"], plan["cap"]) == (2, 6, 2, 4, 4)
@@ -222,12 +252,23 @@ def test_deleting_one_monte_carlo_chunk_reruns_only_that_chunk_and_reproduces_it
     results = workdir / "results"
     chunk = results / "mc" / "case1" / "chunk_001.csv"
     before = chunk.read_bytes()
-    for path in [chunk, results / "mc" / "case1" / "realizations.csv", results / "report" / "report.html",
-                 *(results / "report" / "case1").iterdir()]:
+    for path in [
+        chunk,
+        results / "mc" / "case1" / "realizations.csv",
+        results / "report" / "report.html",
+        *(results / "report" / "case1").iterdir(),
+    ]:
         path.unlink()
     jobs = scheduled(snakemake(workdir, "-n", "hazard_map", config=workdir / "config.yaml"))
-    assert jobs == {"mc_chunk": 1, "mc_collect": 1, "exceedance": 1, "zoning": 1, "multifidelity": 1, "report": 1,
-                    "hazard_map": 1}
+    assert jobs == {
+        "mc_chunk": 1,
+        "mc_collect": 1,
+        "exceedance": 1,
+        "zoning": 1,
+        "multifidelity": 1,
+        "report": 1,
+        "hazard_map": 1,
+    }
     result = snakemake(workdir, "--cores", "2", "hazard_map", config=workdir / "config.yaml")
     assert result.returncode == 0, result.stderr
     assert chunk.read_bytes() == before
@@ -241,7 +282,9 @@ def test_monte_carlo_results_do_not_depend_on_the_chunk_size(built, tmp_path):
     changed["montecarlo"]["chunk_size"] = 3
     path = write_config(tmp_path / "c.yaml", changed)
     assert scheduled(snakemake(copy_dir, "-n", "results/mc/case1/realizations.csv", config=path)) == {
-        "mc_chunk": 2, "mc_collect": 1}
+        "mc_chunk": 2,
+        "mc_collect": 1,
+    }
     result = snakemake(copy_dir, "--cores", "2", "results/mc/case1/realizations.csv", config=path)
     assert result.returncode == 0, result.stderr
     table = "results/mc/case1/realizations.csv"
@@ -251,9 +294,11 @@ def test_monte_carlo_results_do_not_depend_on_the_chunk_size(built, tmp_path):
 def test_jobs_ask_their_scheduler_for_a_gpu_exactly_when_their_device_is_cuda(tmp_path):
     """config/paper.yaml trains and rolls out on cuda: those jobs ask SLURM for a GPU; on the
     default config's cpu no job does."""
+
     def gpu_requests(config: Path) -> dict[str, set[str]]:
-        output = snakemake(tmp_path, "-n", "results/mc/case1/chunk_000.csv", "results/model/gns.pt",
-                           config=config).stdout
+        output = snakemake(
+            tmp_path, "-n", "results/mc/case1/chunk_000.csv", "results/model/gns.pt", config=config
+        ).stdout
         requests: dict[str, set[str]] = {}
         for block in output.split("\nrule ")[1:]:
             match = re.search(r"gpu=(\d+)", block)
@@ -274,8 +319,10 @@ def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_
     copy_dir = tmp_path / "strict"
     shutil.copytree(workdir, copy_dir)
     strict = copy.deepcopy(config)
-    strict["validation"]["acceptance"] = {"metrics": {"runout": {"r2_min": 0.99, "relative_bias_max": 0.001}},
-                                        "min_realizations": 1}
+    strict["validation"]["acceptance"] = {
+        "metrics": {"runout": {"r2_min": 0.99, "relative_bias_max": 0.001}},
+        "min_realizations": 1,
+    }
     path = write_config(tmp_path / "strict.yaml", strict)
     result = snakemake(copy_dir, "--cores", "2", "hazard_map", config=path)
     assert result.returncode == 0, result.stderr
@@ -287,11 +334,17 @@ def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_
     full = load_config(path)
     inputs = CaseInputs.from_config(full, "case1")
     batch = [draw_realization(inputs, index) for index in (0, 1)]
-    runs = simulate_mpm(batch, full["mpm"], frame_count(full["mpm"]["duration_s"], full["mpm"]["frame_interval_s"]),
-                        keep="ends")
+    runs = simulate_mpm(
+        batch, full["mpm"], frame_count(full["mpm"]["duration_s"], full["mpm"]["frame_interval_s"]), keep="ends"
+    )
     for realization, run in zip(batch, runs):
-        expected = runout_metrics(realization.scene.positions, run.positions[-1], realization.scene.volumes,
-                                  crest_x(realization.scene.vertices), MetricSettings(**full["metrics"]))
+        expected = runout_metrics(
+            realization.scene.positions,
+            run.positions[-1],
+            realization.scene.volumes,
+            crest_x(realization.scene.vertices),
+            MetricSettings(**full["metrics"]),
+        )
         row = table.loc[table["index"] == realization.index].iloc[0]  # (positions kept in float32: 1e-3 m)
         assert row["runout_m"] == pytest.approx(expected.runout_m, abs=1e-3) and expected.runout_m > 0
     page = (copy_dir / "results" / "report" / "report.html").read_text()
@@ -317,9 +370,17 @@ def test_the_tuned_control_variate_is_made_and_corrects_the_monte_carlo(built, t
     workdir = tmp_path / "tuned"
     shutil.copytree(built[0], workdir, symlinks=True)
     config = copy.deepcopy(built[1])
-    config["endstate"] = {"model": "train", "realizations": 2, "held_out": 1, "chunk_size": 3, "widths": [4, 8],
-                          "steps": 10, "checkpoint_every": 10, "threads": 1,
-                          "tuned": {"model": "train", "realizations": 2, "held_out": 2, "chunk_size": 2, "steps": 5}}
+    config["endstate"] = {
+        "model": "train",
+        "realizations": 2,
+        "held_out": 1,
+        "chunk_size": 3,
+        "widths": [4, 8],
+        "steps": 10,
+        "checkpoint_every": 10,
+        "threads": 1,
+        "tuned": {"model": "train", "realizations": 2, "held_out": 2, "chunk_size": 2, "steps": 5},
+    }
     config["montecarlo"]["fidelity"]["cheap"] = "tuned"
     results = workdir / "results"
     own = (results / "mc" / "case1" / "realizations.csv").stat().st_mtime_ns
@@ -340,8 +401,10 @@ def test_the_tuned_control_variate_is_made_and_corrects_the_monte_carlo(built, t
     assert record["simulator_means"]["runout_m"] == pytest.approx(mc["runout_m"].mean())
     assert record["cost"]["high_s"] > record["cost"]["low_s"] > 0
     page = (results / "report" / "report.html").read_text()
-    assert "by the correction&#x27;s cheap route (the end-state surrogate tuned" in page or \
-        "by the correction's cheap route (the end-state surrogate tuned" in page
+    assert (
+        "by the correction&#x27;s cheap route (the end-state surrogate tuned" in page
+        or "by the correction's cheap route (the end-state surrogate tuned" in page
+    )
 
 
 def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built, tmp_path):
@@ -352,16 +415,27 @@ def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built
     shutil.copytree(built[0], workdir, symlinks=True)
     config = copy.deepcopy(built[1])
     config["montecarlo"]["simulator"] = "endstate"
-    config["endstate"] = {"model": "train", "realizations": 4, "held_out": 2, "chunk_size": 2, "widths": [4, 8],
-                          "steps": 20, "checkpoint_every": 10, "threads": 1,
-                          "validation": {"sets": ["case1"], "data_seed": 99, "realizations": 3, "chunk_size": 2}}
+    config["endstate"] = {
+        "model": "train",
+        "realizations": 4,
+        "held_out": 2,
+        "chunk_size": 2,
+        "widths": [4, 8],
+        "steps": 20,
+        "checkpoint_every": 10,
+        "threads": 1,
+        "validation": {"sets": ["case1"], "data_seed": 99, "realizations": 3, "chunk_size": 2},
+    }
     packed = workdir / "results" / "dataset" / "case1.h5"
     before = packed.stat().st_mtime_ns
     result = snakemake(workdir, "--cores", "2", "hazard_map", config=write_config(tmp_path / "endstate.yaml", config))
     assert result.returncode == 0, result.stderr
     results = workdir / "results"
-    assert sorted(p.name for p in (results / "endstate" / "data" / "case1").glob("*.h5")) == \
-        ["chunk_000.h5", "chunk_001.h5", "chunk_002.h5"]
+    assert sorted(p.name for p in (results / "endstate" / "data" / "case1").glob("*.h5")) == [
+        "chunk_000.h5",
+        "chunk_001.h5",
+        "chunk_002.h5",
+    ]
     history = read_csv(results / "model" / "endstate_history.csv")
     assert list(history["step"]) == [10, 20]
     gate = json.loads((results / "report" / "validation" / "gate.json").read_text())
@@ -376,15 +450,21 @@ def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built
 
     # its card: validated on endstate.validation's sets (their own seed) first; the model is not retrained
     model_time = (results / "model" / "endstate.pt").stat().st_mtime_ns
-    result = snakemake(workdir, "--cores", "2", "pretrain_endstate", config=write_config(tmp_path / "endstate.yaml", config))
+    result = snakemake(
+        workdir, "--cores", "2", "pretrain_endstate", config=write_config(tmp_path / "endstate.yaml", config)
+    )
     assert result.returncode == 0, result.stderr
     assert (results / "model" / "endstate.pt").stat().st_mtime_ns == model_time
     validation = read_end_states(sorted((results / "endstate" / "validation" / "case1").glob("chunk_*.h5")))
     assert [state.index for state in validation] == [0, 1, 2]
-    assert not np.allclose(validation[0].friction_deg, read_end_states(
-        [results / "endstate" / "data" / "case1" / "chunk_000.h5"])[0].friction_deg)  # another seed's draw
+    assert not np.allclose(
+        validation[0].friction_deg,
+        read_end_states([results / "endstate" / "data" / "case1" / "chunk_000.h5"])[0].friction_deg,
+    )  # another seed's draw
     ood = json.loads((results / "model" / "endstate_ood.json").read_text())
-    assert [(row["set"], row["metric"], row["n"]) for row in ood] == [("case1", m, 3) for m in ("runout", "volume", "influence")]
+    assert [(row["set"], row["metric"], row["n"]) for row in ood] == [
+        ("case1", m, 3) for m in ("runout", "volume", "influence")
+    ]
     card = json.loads((results / "model" / "endstate_card.json").read_text())
     assert card["features"] == "body" and card["bounds"] == {"domain.length_m": 40.0, "domain.height_m": 10.0}
     assert card["ranges"]["field"]["friction_std_deg"] == [5.0, 5.0]

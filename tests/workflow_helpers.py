@@ -1,4 +1,5 @@
 """Run the real workflow with snakemake in a scratch directory and read what it scheduled."""
+
 from __future__ import annotations
 
 import os
@@ -15,8 +16,16 @@ REPO = Path(__file__).resolve().parent.parent
 
 def snakemake_command(workdir: Path, *args: str, config: Path | None = None) -> list[str]:
     """The ``snakemake`` command line on the repository's Snakefile in ``workdir``."""
-    command = [sys.executable, "-m", "snakemake", "--snakefile", str(REPO / "Snakefile"),
-               "--directory", str(workdir), *args]
+    command = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "--snakefile",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(workdir),
+        *args,
+    ]
     return command + ["--configfile", str(config)] if config is not None else command
 
 
@@ -24,14 +33,17 @@ def snakemake(workdir: Path, *args: str, config: Path | None = None, timeout: in
     """``snakemake`` on the repository's Snakefile in ``workdir`` (targets go in ``args``)."""
     command = snakemake_command(workdir, *args, config=config)
     # its own process group, so a timeout kills the jobs it started too, not only snakemake
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True)
+    process = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
     try:
         stdout, stderr = process.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
+    except subprocess.TimeoutExpired as error:
         os.killpg(process.pid, signal.SIGKILL)
         stdout, stderr = process.communicate()
-        raise AssertionError(f"snakemake {' '.join(args)} timed out after {timeout} s:\n{stdout[-3000:]}\n{stderr[-3000:]}")
+        raise AssertionError(
+            f"snakemake {' '.join(args)} timed out after {timeout} s:\n{stdout[-3000:]}\n{stderr[-3000:]}"
+        ) from error
     return subprocess.CompletedProcess(command, process.returncode, stdout, stderr)
 
 
@@ -61,6 +73,6 @@ def write_config(path: Path, config: dict) -> Path:
 def fake_mpm_binary(directory: Path) -> Path:
     """An executable ``mpm`` that runs tests/fake_mpm.py with this interpreter."""
     binary = directory / "mpm"
-    binary.write_text(f"#!/bin/sh\nexec {sys.executable} {REPO / 'tests' / 'fake_mpm.py'} \"$@\"\n")
+    binary.write_text(f'#!/bin/sh\nexec {sys.executable} {REPO / "tests" / "fake_mpm.py"} "$@"\n')
     binary.chmod(0o755)
     return binary

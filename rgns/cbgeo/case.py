@@ -11,6 +11,7 @@ without ``particles-friction-deg.txt`` each particle has its material's friction
 Duration and frame interval always come from ``mpm.json``. A missing, malformed or unsupported
 file is a :class:`CaseError` naming the file (and the key).
 """
+
 from __future__ import annotations
 
 import json
@@ -27,8 +28,10 @@ FRICTION_FILE = "particles-friction-deg.txt"
 META_FILE = "rgns-case.json"
 MATERIAL_TYPE = "MohrCoulomb2D"
 MATERIAL_KEYS = ("density", "youngs_modulus", "poisson_ratio", "friction", "dilation", "cohesion", "tension_cutoff")
-CONSTRAINT_KEYS = {"velocity_constraints": ("nset_id", "dir", "velocity"),
-                   "friction_constraints": ("nset_id", "dir", "sign_n", "friction")}
+CONSTRAINT_KEYS = {
+    "velocity_constraints": ("nset_id", "dir", "velocity"),
+    "friction_constraints": ("nset_id", "dir", "sign_n", "friction"),
+}
 
 
 class CaseError(ValueError):
@@ -148,7 +151,7 @@ def _counted(path: Path, columns: int, dtype: type = float) -> np.ndarray:
     lines = _data_lines(path)
     if not lines:
         raise CaseError(f"{path}: empty")
-    count, = _count(path, lines[0], 1)
+    (count,) = _count(path, lines[0], 1)
     rows = _table(path, lines[1:], columns, dtype)
     if len(rows) != count:
         raise CaseError(f"{path}: header says {count} rows, found {len(rows)}")
@@ -166,8 +169,8 @@ def read_mesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
     n_nodes, n_cells = counts
     if len(lines) != 1 + n_nodes + n_cells:
         raise CaseError(f"{path}: header says {n_nodes} nodes and {n_cells} cells, found {len(lines) - 1} lines")
-    nodes = _table(path, lines[1:1 + n_nodes], 2, float)
-    cells = _table(path, lines[1 + n_nodes:], 4, int)
+    nodes = _table(path, lines[1 : 1 + n_nodes], 2, float)
+    cells = _table(path, lines[1 + n_nodes :], 4, int)
     if cells.size and (cells.min() < 0 or cells.max() >= n_nodes):
         raise CaseError(f"{path}: cell node ids outside 0..{n_nodes - 1}")
     return nodes, cells
@@ -190,7 +193,7 @@ def _get(document: dict[str, Any], path: Path, *keys: str) -> Any:
     value: Any = document
     for depth, key in enumerate(keys):
         if not isinstance(value, dict) or key not in value:
-            raise CaseError(f"{path}: missing key '{'.'.join(keys[:depth + 1])}'")
+            raise CaseError(f"{path}: missing key '{'.'.join(keys[: depth + 1])}'")
         value = value[key]
     return value
 
@@ -240,7 +243,9 @@ def _stresses(path: Path, n_particles: int) -> np.ndarray:
     return stresses
 
 
-def _entity_sets(path: Path | None, n_nodes: int, n_particles: int) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
+def _entity_sets(
+    path: Path | None, n_nodes: int, n_particles: int
+) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
     """Node and particle sets of ``entity_sets.json`` (none when ``mpm.json`` names no file)."""
     if path is None:
         return {}, {}
@@ -253,15 +258,23 @@ def _entity_sets(path: Path | None, n_nodes: int, n_particles: int) -> tuple[dic
                 members = np.asarray(entry["set"], dtype=int)
                 sets[int(entry["id"])] = members
             except (KeyError, TypeError, ValueError) as error:
-                raise CaseError(f"{path}: every entry of '{kind}' needs an integer 'id' and a list 'set' ({error!r})") from error
+                raise CaseError(
+                    f"{path}: every entry of '{kind}' needs an integer 'id' and a list 'set' ({error!r})"
+                ) from error
             if members.ndim != 1 or (len(members) and (members.min() < 0 or members.max() >= size)):
                 raise CaseError(f"{path}: {kind} id {int(entry['id'])} holds ids outside 0..{size - 1}")
         found.append(sets)
     return found[0], found[1]
 
 
-def _material_ids(config: dict[str, Any], generator: dict[str, Any], particle_sets: dict[int, np.ndarray],
-                  n_particles: int, input_path: Path, sets_path: Path | None) -> np.ndarray:
+def _material_ids(
+    config: dict[str, Any],
+    generator: dict[str, Any],
+    particle_sets: dict[int, np.ndarray],
+    n_particles: int,
+    input_path: Path,
+    sets_path: Path | None,
+) -> np.ndarray:
     """Each particle's material: the generator's, then ``material_sets`` in order; every id checked."""
     referenced = {"particles[0].generator.material_id": generator["material_id"]}
     material_id = np.full(n_particles, int(generator["material_id"]))
@@ -270,8 +283,10 @@ def _material_ids(config: dict[str, Any], generator: dict[str, Any], particle_se
             raise CaseError(f"{input_path}: key 'material_sets[{i}]' needs 'material_id' and 'pset_id'")
         pset = int(material_set["pset_id"])
         if pset not in particle_sets:
-            raise CaseError(f"{input_path}: key 'material_sets[{i}].pset_id' = {pset}: no particle set with that id "
-                            f"in {sets_path or 'the entity sets (mpm.json names no mesh.entity_sets file)'}")
+            raise CaseError(
+                f"{input_path}: key 'material_sets[{i}].pset_id' = {pset}: no particle set with that id "
+                f"in {sets_path or 'the entity sets (mpm.json names no mesh.entity_sets file)'}"
+            )
         material_id[particle_sets[pset]] = int(material_set["material_id"])
         referenced[f"material_sets[{i}].material_id"] = material_set["material_id"]
     _check_materials(config, referenced, input_path)
@@ -286,12 +301,15 @@ def _check_materials(config: dict[str, Any], referenced: dict[str, Any], input_p
     by_id = {int(m["id"]): m for m in materials}
     for key, used in referenced.items():
         if int(used) not in by_id:
-            raise CaseError(f"{input_path}: key '{key}' = {used}: no material with that id in 'materials' "
-                            f"(ids {sorted(by_id)})")
+            raise CaseError(
+                f"{input_path}: key '{key}' = {used}: no material with that id in 'materials' (ids {sorted(by_id)})"
+            )
         material = by_id[int(used)]
         if material.get("type") != MATERIAL_TYPE:
-            raise CaseError(f"{input_path}: material {used} has type {material.get('type')!r}; "
-                            f"the embedded engine supports {MATERIAL_TYPE} only")
+            raise CaseError(
+                f"{input_path}: material {used} has type {material.get('type')!r}; "
+                f"the embedded engine supports {MATERIAL_TYPE} only"
+            )
         missing = [name for name in MATERIAL_KEYS if name not in material]
         if missing:
             raise CaseError(f"{input_path}: material {used} lacks key(s) {missing}")
@@ -299,8 +317,11 @@ def _check_materials(config: dict[str, Any], referenced: dict[str, Any], input_p
 
 def _check_analysis(config: dict[str, Any], input_path: Path) -> None:
     """``analysis.dt``, ``analysis.nsteps``, ``post_processing.output_steps`` and gravity are there."""
-    for keys, kind in ((("analysis", "dt"), float), (("analysis", "nsteps"), int),
-                       (("post_processing", "output_steps"), int)):
+    for keys, kind in (
+        (("analysis", "dt"), float),
+        (("analysis", "nsteps"), int),
+        (("post_processing", "output_steps"), int),
+    ):
         value = _get(config, input_path, *keys)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0 or kind(value) != value:
             raise CaseError(f"{input_path}: key '{'.'.join(keys)}' = {value!r}: expected a positive {kind.__name__}")
@@ -309,8 +330,9 @@ def _check_analysis(config: dict[str, Any], input_path: Path) -> None:
         raise CaseError(f"{input_path}: key 'external_loading_conditions.gravity' = {gravity!r}: expected [gx, gy]")
 
 
-def _check_constraints(config: dict[str, Any], node_sets: dict[int, np.ndarray], input_path: Path,
-                       sets_path: Path | None) -> None:
+def _check_constraints(
+    config: dict[str, Any], node_sets: dict[int, np.ndarray], input_path: Path, sets_path: Path | None
+) -> None:
     """Velocity and friction constraints are node-set ones, with every key, on sets that exist."""
     conditions = _get(config, input_path, "mesh", "boundary_conditions")
     if not isinstance(conditions, dict):
@@ -320,10 +342,14 @@ def _check_constraints(config: dict[str, Any], node_sets: dict[int, np.ndarray],
             where = f"mesh.boundary_conditions.{kind}[{i}]"
             missing = [key for key in keys if not isinstance(constraint, dict) or key not in constraint]
             if missing:
-                raise CaseError(f"{input_path}: key '{where}' lacks {missing} (only node-set constraints are supported)")
+                raise CaseError(
+                    f"{input_path}: key '{where}' lacks {missing} (only node-set constraints are supported)"
+                )
             if int(constraint["nset_id"]) not in node_sets:
-                raise CaseError(f"{input_path}: key '{where}.nset_id' = {constraint['nset_id']}: no node set with "
-                                f"that id in {sets_path or 'the entity sets (mpm.json names no mesh.entity_sets file)'}")
+                raise CaseError(
+                    f"{input_path}: key '{where}.nset_id' = {constraint['nset_id']}: no node set with "
+                    f"that id in {sets_path or 'the entity sets (mpm.json names no mesh.entity_sets file)'}"
+                )
 
 
 def _friction(directory: Path, n_particles: int) -> np.ndarray | None:
@@ -350,27 +376,52 @@ def read_case(directory: str | Path) -> Case:
     generator = _generator(config, input_path)
 
     nodes, cells = read_mesh(_input_file(directory, _get(config, input_path, "mesh", "mesh"), "mesh.mesh", input_path))
-    positions = _counted(_input_file(directory, generator["location"], "particles[0].generator.location", input_path), 2)
-    volumes_path = _input_file(directory, _get(config, input_path, "mesh", "particles_volumes"),
-                               "mesh.particles_volumes", input_path)
+    positions = _counted(
+        _input_file(directory, generator["location"], "particles[0].generator.location", input_path), 2
+    )
+    volumes_path = _input_file(
+        directory, _get(config, input_path, "mesh", "particles_volumes"), "mesh.particles_volumes", input_path
+    )
     volumes = _volumes(volumes_path, len(positions))
     stresses = None
     if "particles_stresses" in mesh:
-        stresses = _stresses(_input_file(directory, mesh["particles_stresses"], "mesh.particles_stresses", input_path),
-                             len(positions))
-    sets_path = _input_file(directory, mesh["entity_sets"], "mesh.entity_sets", input_path) if "entity_sets" in mesh else None
+        stresses = _stresses(
+            _input_file(directory, mesh["particles_stresses"], "mesh.particles_stresses", input_path), len(positions)
+        )
+    sets_path = (
+        _input_file(directory, mesh["entity_sets"], "mesh.entity_sets", input_path) if "entity_sets" in mesh else None
+    )
     node_sets, particle_sets = _entity_sets(sets_path, len(nodes), len(positions))
     _check_constraints(config, node_sets, input_path, sets_path)
     material_id = _material_ids(config, generator, particle_sets, len(positions), input_path, sets_path)
     friction_deg = _friction(directory, len(positions))
     if friction_deg is None:
         friction_deg = _per_particle(config, material_id, "friction")
-    return Case(directory, meta, config, nodes, cells, positions, volumes, stresses, material_id, friction_deg,
-                node_sets, particle_sets)
+    return Case(
+        directory,
+        meta,
+        config,
+        nodes,
+        cells,
+        positions,
+        volumes,
+        stresses,
+        material_id,
+        friction_deg,
+        node_sets,
+        particle_sets,
+    )
 
 
-def to_trajectory(case: Case, positions: np.ndarray, time_s: np.ndarray, engine: str, provenance: dict[str, Any],
-                  status: str = "ok", energies: np.ndarray | None = None) -> Trajectory:
+def to_trajectory(
+    case: Case,
+    positions: np.ndarray,
+    time_s: np.ndarray,
+    engine: str,
+    provenance: dict[str, Any],
+    status: str = "ok",
+    energies: np.ndarray | None = None,
+) -> Trajectory:
     """A trajectory of a case's particles (exact friction, volumes, masses from the case)."""
     return Trajectory(
         positions=positions,

@@ -3,6 +3,7 @@
 Each file holds one compound dataset ``table`` (one row per particle); file N is the state after
 step N, i.e. at t = (N + 1)·dt. Rows are sorted by ``id`` so particle order is the input order.
 """
+
 from __future__ import annotations
 
 import re

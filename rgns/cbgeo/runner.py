@@ -3,6 +3,7 @@
 The case is copied into a scratch directory so the input stays untouched; the raw per-step files
 (each ≥ 4 MB) are converted right after the run and deleted unless asked to keep them.
 """
+
 from __future__ import annotations
 
 import os
@@ -31,7 +32,9 @@ def find_binary(name_or_path: str, label: str) -> str:
     if os.sep in name_or_path:
         if os.access(name_or_path, os.X_OK) and Path(name_or_path).is_file():
             return name_or_path
-        raise MPMRunError(f"{label}: CB-Geo binary {name_or_path!r} (mpm.cbgeo.binary) does not exist or is not executable")
+        raise MPMRunError(
+            f"{label}: CB-Geo binary {name_or_path!r} (mpm.cbgeo.binary) does not exist or is not executable"
+        )
     found = shutil.which(name_or_path)
     if found is None:
         raise MPMRunError(
@@ -49,8 +52,9 @@ def _failure_reason(log_path: Path) -> str:
     return "last output: " + " | ".join(tail) if tail else "no output"
 
 
-def run_cbgeo(case_dir: str | Path, scratch_dir: str | Path, log_path: str | Path, options: dict[str, Any],
-              label: str) -> tuple[Case, Path, float]:
+def run_cbgeo(
+    case_dir: str | Path, scratch_dir: str | Path, log_path: str | Path, options: dict[str, Any], label: str
+) -> tuple[Case, Path, float]:
     """Run ``mpm`` on a copy of ``case_dir``; returns the case, the raw results dir and wall time."""
     binary = find_binary(options["binary"], label)
     case = read_case(case_dir)
@@ -68,10 +72,13 @@ def run_cbgeo(case_dir: str | Path, scratch_dir: str | Path, log_path: str | Pat
         log.write("$ " + " ".join(command) + "\n")
         log.flush()
         try:
-            status = subprocess.run(command, stdout=log, stderr=subprocess.STDOUT, env=env,
-                                    timeout=options["timeout_s"]).returncode
-        except subprocess.TimeoutExpired:
-            raise MPMRunError(f"{label}: CB-Geo ran past mpm.cbgeo.timeout_s = {options['timeout_s']} s; log: {log_path}")
+            status = subprocess.run(
+                command, stdout=log, stderr=subprocess.STDOUT, env=env, timeout=options["timeout_s"]
+            ).returncode
+        except subprocess.TimeoutExpired as error:
+            raise MPMRunError(
+                f"{label}: CB-Geo ran past mpm.cbgeo.timeout_s = {options['timeout_s']} s; log: {log_path}"
+            ) from error
     elapsed = time.perf_counter() - start
     if status != 0:
         reason = _failure_reason(log_path)

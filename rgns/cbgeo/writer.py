@@ -18,6 +18,7 @@ rgns's embedded engine read the same files. Layout (names fixed here, in ``mpm.j
 * ``rgns-case.json``: which realization this is, its polygon, the domain and the frame interval
   (rgns's own).
 """
+
 from __future__ import annotations
 
 import json
@@ -76,7 +77,7 @@ class Grid:
     cells: tuple[int, int]
 
     @classmethod
-    def for_domain(cls, length_m: float, height_m: float, cell_size_m: float) -> "Grid":
+    def for_domain(cls, length_m: float, height_m: float, cell_size_m: float) -> Grid:
         nx = int(round(length_m / cell_size_m)) + 2 * PAD_CELLS
         ny = int(round(height_m / cell_size_m)) + 2 * PAD_CELLS
         origin = np.array([-PAD_CELLS * cell_size_m, -PAD_CELLS * cell_size_m])
@@ -164,17 +165,19 @@ def case_json(settings: dict[str, Any], bins: FrictionBins, used_bins: np.ndarra
     return {
         "title": title,
         "mesh": mesh,
-        "particles": [{
-            "generator": {
-                "type": "file",
-                "io_type": "Ascii2D",
-                "location": PARTICLES_FILE,
-                "check_duplicates": False,
-                "particle_type": "P2D",
-                "material_id": int(used_bins[0]),
-                "pset_id": GENERATOR_PSET,
+        "particles": [
+            {
+                "generator": {
+                    "type": "file",
+                    "io_type": "Ascii2D",
+                    "location": PARTICLES_FILE,
+                    "check_duplicates": False,
+                    "particle_type": "P2D",
+                    "material_id": int(used_bins[0]),
+                    "pset_id": GENERATOR_PSET,
+                }
             }
-        }],
+        ],
         "materials": [_material(k, phi, settings) for k, phi in enumerate(bins.bin_friction_deg)],
         "material_sets": [{"material_id": int(k), "pset_id": int(k) + 1} for k in used_bins],
         "external_loading_conditions": {"gravity": [0.0, -settings["gravity_m_s2"]]},
@@ -221,8 +224,9 @@ def case_from_scene(scene: Scene, friction_deg: np.ndarray, settings: dict[str, 
     friction_deg = np.asarray(friction_deg, dtype=float)
     stresses = None
     if settings["geostatic_stress"]:
-        stresses = geostatic_stresses(scene.vertices, positions, friction_deg, settings["density_kg_m3"],
-                                      settings["gravity_m_s2"], settings["k0"])
+        stresses = geostatic_stresses(
+            scene.vertices, positions, friction_deg, settings["density_kg_m3"], settings["gravity_m_s2"], settings["k0"]
+        )
     bins = bin_friction(friction_deg, settings["friction_bins"])
     used = np.unique(bins.particle_bin)
     title = f"rgns {scene.set_name} {scene.index:04d} ({scene.family})"
@@ -256,11 +260,16 @@ def save_case(directory: str | Path, case: Case) -> Path:
     directory.mkdir(parents=True, exist_ok=True)
     mesh = case.config["mesh"]
     n = len(case.positions)
-    _write_counted(directory / mesh["mesh"], f"{len(case.nodes)}\t{len(case.cells)}", (case.nodes, DIGITS),
-                   (case.cells, "%d"))
+    _write_counted(
+        directory / mesh["mesh"], f"{len(case.nodes)}\t{len(case.cells)}", (case.nodes, DIGITS), (case.cells, "%d")
+    )
     _write_counted(directory / case.config["particles"][0]["generator"]["location"], f"{n}", (case.positions, DIGITS))
-    np.savetxt(directory / mesh["particles_volumes"], np.column_stack([np.arange(n), case.volumes]),
-               fmt=["%d", DIGITS], delimiter="\t")
+    np.savetxt(
+        directory / mesh["particles_volumes"],
+        np.column_stack([np.arange(n), case.volumes]),
+        fmt=["%d", DIGITS],
+        delimiter="\t",
+    )
     if case.stresses is not None:
         _write_counted(directory / mesh["particles_stresses"], f"{n}", (case.stresses, DIGITS))
     np.savetxt(directory / FRICTION_FILE, case.friction_deg, fmt=DIGITS)

@@ -9,6 +9,7 @@ refused with the key named. The slopes and soils it learned (``ranges``: generat
 field statistics, body heights) are stated; a Monte Carlo case outside them is not refused but
 named, and the validation gate decides on it as on every case.
 """
+
 from __future__ import annotations
 
 import json
@@ -20,8 +21,16 @@ import numpy as np
 from rgns.shipped import ShippedModelError, data_fingerprint, refuse_unserved, tied_values
 
 DOMAIN_KEYS = (("domain", "length_m"), ("domain", "height_m"))
-TIED_KEYS = (("mesh", "cell_size_m"), ("mesh", "particles_per_cell"), ("mpm", "duration_s"), ("mpm", "gravity_m_s2"),
-             ("mpm", "density_kg_m3"), ("mpm", "cohesion_pa"), ("mpm", "youngs_modulus_pa"), ("mpm", "floor_friction"))
+TIED_KEYS = (
+    ("mesh", "cell_size_m"),
+    ("mesh", "particles_per_cell"),
+    ("mpm", "duration_s"),
+    ("mpm", "gravity_m_s2"),
+    ("mpm", "density_kg_m3"),
+    ("mpm", "cohesion_pa"),
+    ("mpm", "youngs_modulus_pa"),
+    ("mpm", "floor_friction"),
+)
 SERVED_KEYS = DOMAIN_KEYS + TIED_KEYS
 FIELD_RANGE_KEYS = ("friction_mean_deg", "friction_std_deg", "correlation_length_x_m", "correlation_length_y_m")
 
@@ -34,9 +43,11 @@ def served(config: dict[str, Any], features: str = "domain") -> dict[str, Any]:
 def check_serves(card: dict[str, Any], config: dict[str, Any]) -> None:
     """Raise naming every tied key whose value differs between the card and ``config``, and every
     domain extent beyond the card's bounds."""
-    beyond = [f"{key} is {value!r}, the model serves at most {card['bounds'][key]!r}"
-              for key, value in tied_values(config, DOMAIN_KEYS).items()
-              if key in card.get("bounds", {}) and value > card["bounds"][key]]
+    beyond = [
+        f"{key} is {value!r}, the model serves at most {card['bounds'][key]!r}"
+        for key, value in tied_values(config, DOMAIN_KEYS).items()
+        if key in card.get("bounds", {}) and value > card["bounds"][key]
+    ]
     try:
         refuse_unserved(card["serves"], config, "end-state surrogate", "endstate.model")
     except ShippedModelError as error:
@@ -44,9 +55,12 @@ def check_serves(card: dict[str, Any], config: dict[str, Any]) -> None:
             raise
         raise ShippedModelError(f"{error}; and {'; '.join(beyond)}") from error
     if beyond:
-        raise ShippedModelError("the shipped end-state surrogate does not serve this config: " + "; ".join(beyond)
-                                + " (a smaller domain that still holds the slope and its runout, or endstate.model: "
-                                "train)")
+        raise ShippedModelError(
+            "the shipped end-state surrogate does not serve this config: "
+            + "; ".join(beyond)
+            + " (a smaller domain that still holds the slope and its runout, or endstate.model: "
+            "train)"
+        )
 
 
 def training_ranges(config: dict[str, Any], cases: list[str]) -> dict[str, Any]:
@@ -80,34 +94,52 @@ def outside_ranges(card: dict[str, Any], config: dict[str, Any], cases: list[str
                 low, high = ranges["field"][key]
                 values = group[key] if isinstance(group[key], list) else [group[key]]
                 if min(values) < low or max(values) > high:
-                    lines.append(f"config key 'sets.{case}[{g}].{key}' = {group[key]!r} is outside the end-state "
-                                 f"surrogate's training range [{low:g}, {high:g}]: its validation gate decides")
+                    lines.append(
+                        f"config key 'sets.{case}[{g}].{key}' = {group[key]!r} is outside the end-state "
+                        f"surrogate's training range [{low:g}, {high:g}]: its validation gate decides"
+                    )
             height = body_height_m(mean_vertices(config["geometry"]["families"][group["family"]]))
             low, high = card["ranges"]["body_height_m"]
             if not low <= height <= high:
-                lines.append(f"config key 'sets.{case}[{g}].family' = {group['family']!r}: a body {height:.1f} m high "
-                             f"is outside the end-state surrogate's training range [{low:g}, {high:g}] m: its "
-                             "validation gate decides")
+                lines.append(
+                    f"config key 'sets.{case}[{g}].family' = {group['family']!r}: a body {height:.1f} m high "
+                    f"is outside the end-state surrogate's training range [{low:g}, {high:g}] m: its "
+                    "validation gate decides"
+                )
     return lines
 
 
 def evaluation_of(history: list[dict[str, Any]], shipped: bool = False) -> dict[str, Any]:
     """What the report says of a trained model: steps, wall time, the last held-out losses."""
     last = history[-1]
-    return {"steps": int(last["step"]), "wall_s": float(last["elapsed_s"]), "valid_loss": float(last["valid_loss"]),
-            "valid_mean_predictor_loss": float(last["valid_mean_predictor_loss"]), "shipped": shipped}
+    return {
+        "steps": int(last["step"]),
+        "wall_s": float(last["elapsed_s"]),
+        "valid_loss": float(last["valid_loss"]),
+        "valid_mean_predictor_loss": float(last["valid_mean_predictor_loss"]),
+        "shipped": shipped,
+    }
 
 
-def make_card(config: dict[str, Any], data_paths: list[str], history: list[dict[str, Any]],
-              cases: list[str]) -> dict[str, Any]:
+def make_card(
+    config: dict[str, Any], data_paths: list[str], history: list[dict[str, Any]], cases: list[str]
+) -> dict[str, Any]:
     """The card of a trained model: what it was trained on and how, and what it serves."""
     section = config["endstate"]
     evaluation = evaluation_of(history, shipped=True)
     features = section.get("features", "domain")
-    card = {"config": config, "cases": list(cases), "data_fingerprint": data_fingerprint(data_paths),
-            "realizations_per_case": section["realizations"], "held_out_per_case": section["held_out"],
-            "steps": evaluation["steps"], "wall_s": evaluation["wall_s"], "evaluation": evaluation,
-            "features": features, "serves": served(config, features)}
+    card = {
+        "config": config,
+        "cases": list(cases),
+        "data_fingerprint": data_fingerprint(data_paths),
+        "realizations_per_case": section["realizations"],
+        "held_out_per_case": section["held_out"],
+        "steps": evaluation["steps"],
+        "wall_s": evaluation["wall_s"],
+        "evaluation": evaluation,
+        "features": features,
+        "serves": served(config, features),
+    }
     if features == "body":
         card["bounds"] = tied_values(config, DOMAIN_KEYS)
         card["ranges"] = training_ranges(config, cases) | {"body_height_m": body_heights(config, cases, data_paths)}
@@ -128,24 +160,37 @@ def _serves_lines(card: dict[str, Any]) -> list[str]:
     tied = [f"* `{key}`: {value}" for key, value in card["serves"].items()]
     if "bounds" not in card:
         groups = {case: card["config"]["sets"][case] for case in card["cases"]}
-        return ["Configs whose keys below equal these values; `rgns.endstate.card.check_serves` refuses any other, "
-                "naming the key. It learned the random-field models of these test cases (family and field "
-                "statistics); the validation gate re-checks it against fresh MPM runs on every run.", "", *tied,
-                *(f"* `{case}`: {json.dumps(group)}" for case, group in groups.items())]
+        return [
+            "Configs whose keys below equal these values; `rgns.endstate.card.check_serves` refuses any other, "
+            "naming the key. It learned the random-field models of these test cases (family and field "
+            "statistics); the validation gate re-checks it against fresh MPM runs on every run.",
+            "",
+            *tied,
+            *(f"* `{case}`: {json.dumps(group)}" for case, group in groups.items()),
+        ]
     ranges = card["ranges"]
     return [
         "Refused, naming the key (`rgns.endstate.card.check_serves`): a config whose keys below differ, or a "
         "domain beyond the bounds. Any domain up to the bounds is served: the model reads positions relative to "
-        "the floor and the ground surface, and a slope's image does not depend on the domain around it.", "",
-        *tied, *(f"* `{key}` ≤ {value}" for key, value in card["bounds"].items()), "",
+        "the floor and the ground surface, and a slope's image does not depend on the domain around it.",
+        "",
+        *tied,
+        *(f"* `{key}` ≤ {value}" for key, value in card["bounds"].items()),
+        "",
         "Learned, and stated here (`rgns.endstate.card.outside_ranges` names a Monte Carlo case outside them; its "
-        "validation gate decides, as for every case):", "",
+        "validation gate decides, as for every case):",
+        "",
         *(f"* `{key}`: {low:g} – {high:g}" for key, (low, high) in ranges["field"].items()),
         f"* body height above the floor: {ranges['body_height_m'][0]:.1f} – {ranges['body_height_m'][1]:.1f} m",
-        "* geometry families:", "",
-        "| family | kind | parameters or vertices |", "| --- | --- | --- |",
-        *(f"| {name} | {family.get('generator', 'polygon')} | "
-          f"{json.dumps(family.get('params', family.get('vertices')))} |" for name, family in ranges["families"].items()),
+        "* geometry families:",
+        "",
+        "| family | kind | parameters or vertices |",
+        "| --- | --- | --- |",
+        *(
+            f"| {name} | {family.get('generator', 'polygon')} | "
+            f"{json.dumps(family.get('params', family.get('vertices')))} |"
+            for name, family in ranges["families"].items()
+        ),
     ]
 
 
@@ -156,22 +201,34 @@ def _validation_source(card: dict[str, Any]) -> list[str]:
         return []
     loss = card["config"]["endstate"].get("threshold_weight", 0.0)
     trained = f"; trained with the moved / not-moved term at weight {loss:g}" if loss else ""
-    return [f"{section['realizations']} realizations per set drawn from seed {section['data_seed']} "
-            f"(`endstate.validation.data_seed`), run by the embedded MPM; R², NRMSE and bias with bootstrap 95 % "
-            f"intervals over realizations{trained}.", ""]
+    return [
+        f"{section['realizations']} realizations per set drawn from seed {section['data_seed']} "
+        f"(`endstate.validation.data_seed`), run by the embedded MPM; R², NRMSE and bias with bootstrap 95 % "
+        f"intervals over realizations{trained}.",
+        "",
+    ]
 
 
-def render_card(card: dict[str, Any], validation_markdown: str, validation_title: str =
-                "Validation against fresh MPM runs of the test cases") -> str:
+def render_card(
+    card: dict[str, Any],
+    validation_markdown: str,
+    validation_title: str = "Validation against fresh MPM runs of the test cases",
+) -> str:
     """The card as Markdown, with a validation table against fresh MPM runs."""
     last = card["evaluation"]
     per = "set" if "bounds" in card else "test case"
     lines = [
-        "# The shipped end-state surrogate: model card", "",
+        "# The shipped end-state surrogate: model card",
+        "",
         "Produced by the pipeline: `snakemake --cores 2 --configfile config/pretrain_general.yaml --directory "
-        "work/pretrain_general pretrain_endstate` (docs: \"The end-state surrogate\").", "",
-        "## What it serves", "", *_serves_lines(card), "",
-        "## Training", "",
+        'work/pretrain_general pretrain_endstate` (docs: "The end-state surrogate").',
+        "",
+        "## What it serves",
+        "",
+        *_serves_lines(card),
+        "",
+        "## Training",
+        "",
         f"* data: {card['realizations_per_case']} realizations per {per} ({len(card['cases'])} sets) drawn from seed "
         f"{card['config']['endstate']['data_seed']} and run by the embedded MPM, plus {card['held_out_per_case']} "
         f"held out per {per}; SHA-256 `{card['data_fingerprint'][:16]}…`",
@@ -179,9 +236,20 @@ def render_card(card: dict[str, Any], validation_markdown: str, validation_title
         "threads); the last iterate is kept (one-cycle learning rate)",
         f"* held-out loss at the end {last['valid_loss']:.4g} against the mean predictor's "
         f"{last['valid_mean_predictor_loss']:.4g} ({last['valid_loss'] / last['valid_mean_predictor_loss']:.4f} of it)",
-        "", "![learning curve](endstate_curve.png)", "",
-        f"## {validation_title}", "", *_validation_source(card), validation_markdown.strip(), "",
-        "## Config it was trained with", "", "```json", json.dumps(card["config"], indent=2), "```", "",
+        "",
+        "![learning curve](endstate_curve.png)",
+        "",
+        f"## {validation_title}",
+        "",
+        *_validation_source(card),
+        validation_markdown.strip(),
+        "",
+        "## Config it was trained with",
+        "",
+        "```json",
+        json.dumps(card["config"], indent=2),
+        "```",
+        "",
     ]
     return "\n".join(lines)
 
@@ -197,8 +265,7 @@ def plot_learning_curve(history: list[dict[str, Any]], path: str | Path) -> None
     figure, axis = plt.subplots(figsize=(6, 4), constrained_layout=True)
     axis.semilogy(steps, [row["train_loss"] for row in history], label="training")
     axis.semilogy(steps, [row["valid_loss"] for row in history], "o-", label="held out")
-    axis.semilogy(steps, [row["valid_mean_predictor_loss"] for row in history], "k--",
-                  label="mean predictor, held out")
+    axis.semilogy(steps, [row["valid_mean_predictor_loss"] for row in history], "k--", label="mean predictor, held out")
     axis.set_xlabel("step")
     axis.set_ylabel("MSE of scaled final displacement")
     axis.legend()

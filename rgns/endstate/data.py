@@ -5,6 +5,7 @@ One HDF5 file per chunk, one group per realization (``initial``, ``final`` [N, 2
 ``volume_m2`` [N]; attributes ``index``, ``case``), a root attribute ``statuses`` listing every run.
 Runs that did not finish ("diverged: …") are listed there and not stored.
 """
+
 from __future__ import annotations
 
 import json
@@ -35,13 +36,18 @@ class EndState:
     volume_m2: np.ndarray  # [N]
 
 
-def simulate_end_states(inputs: CaseInputs, indices: list[int], mpm: dict, frames: int) -> tuple[list[EndState], list[str]]:
+def simulate_end_states(
+    inputs: CaseInputs, indices: list[int], mpm: dict, frames: int
+) -> tuple[list[EndState], list[str]]:
     """Run realizations ``indices`` of a case through the embedded MPM in one batch; the finished
     ones as end states, and every run's status."""
     batch = [draw_realization(inputs, i) for i in indices]
     results = simulate_mpm(batch, mpm, frames, keep="ends")
-    states = [EndState(inputs.case, r.index, r.scene.positions, s.positions[-1], r.friction_deg, r.scene.volumes)
-              for r, s in zip(batch, results) if s.status == "ok"]
+    states = [
+        EndState(inputs.case, r.index, r.scene.positions, s.positions[-1], r.friction_deg, r.scene.volumes)
+        for r, s in zip(batch, results)
+        if s.status == "ok"
+    ]
     return states, [s.status for s in results]
 
 
@@ -65,10 +71,15 @@ def read_end_states(paths: list[str | Path]) -> list[EndState]:
                 for case in handle:
                     for name in sorted(handle[case]):
                         group = handle[case][name]
-                        states.append(EndState(str(group.attrs["case"]), int(group.attrs["index"]),
-                                               *(group[key][()] for key in ("initial", "final", "friction_deg",
-                                                                            "volume_m2"))))
+                        states.append(
+                            EndState(
+                                str(group.attrs["case"]),
+                                int(group.attrs["index"]),
+                                *(group[key][()] for key in ("initial", "final", "friction_deg", "volume_m2")),
+                            )
+                        )
         except (OSError, KeyError) as error:
-            raise EndStateDataError(f"{path}: not a readable end-state file ({error}); delete it and run again") \
-                from error
+            raise EndStateDataError(
+                f"{path}: not a readable end-state file ({error}); delete it and run again"
+            ) from error
     return states

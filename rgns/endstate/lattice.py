@@ -14,6 +14,7 @@ position features, either
 
 Channels out: the displacement (x, y) of the point in each pixel, divided by a scale.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -40,8 +41,9 @@ class Lattice:
     features: str = "domain"  # the position channels: "body" or "domain" (files saved before features lack it)
 
     @classmethod
-    def for_domain(cls, length_m: float, height_m: float, cell_size_m: float, particles_per_cell: int,
-                   features: str = "body") -> "Lattice":
+    def for_domain(
+        cls, length_m: float, height_m: float, cell_size_m: float, particles_per_cell: int, features: str = "body"
+    ) -> Lattice:
         if features not in FEATURES:
             raise LatticeError(f"endstate.features = {features!r}: expected one of {FEATURES}")
         spacing = cell_size_m / particles_per_cell
@@ -60,19 +62,27 @@ class Lattice:
         scaled = np.asarray(positions, dtype=float) / self.spacing_m - 0.5
         index = np.rint(scaled).astype(int)
         if np.abs(scaled - index).max(initial=0.0) > 1e-3:
-            raise LatticeError(f"points are not on the {self.spacing_m} m lattice (another mesh.cell_size_m or "
-                               "mesh.particles_per_cell than the model's?)")
+            raise LatticeError(
+                f"points are not on the {self.spacing_m} m lattice (another mesh.cell_size_m or "
+                "mesh.particles_per_cell than the model's?)"
+            )
         column, row = index[:, 0], index[:, 1]
-        if column.min(initial=0) < 0 or row.min(initial=0) < 0 or column.max(initial=0) >= self.columns \
-                or row.max(initial=0) >= self.rows:
-            raise LatticeError(f"points outside the model's {self.columns * self.spacing_m} x "
-                               f"{self.rows * self.spacing_m} m domain")
+        if (
+            column.min(initial=0) < 0
+            or row.min(initial=0) < 0
+            or column.max(initial=0) >= self.columns
+            or row.max(initial=0) >= self.rows
+        ):
+            raise LatticeError(
+                f"points outside the model's {self.columns * self.spacing_m} x {self.rows * self.spacing_m} m domain"
+            )
         if len(np.unique(row * self.columns + column)) != len(row):
             raise LatticeError("two points share a lattice pixel")
         return row, column
 
-    def inputs(self, positions: np.ndarray, friction_deg: np.ndarray, friction_center: float,
-               friction_scale: float) -> np.ndarray:
+    def inputs(
+        self, positions: np.ndarray, friction_deg: np.ndarray, friction_center: float, friction_scale: float
+    ) -> np.ndarray:
         """The input image [INPUT_CHANNELS, rows, columns] of one slope at rest."""
         row, column = self.pixels(positions)
         image = np.zeros((INPUT_CHANNELS, self.rows, self.columns), np.float32)

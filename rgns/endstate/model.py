@@ -4,6 +4,7 @@ It maps a slope at rest straight to where each material point comes to rest, in 
 evaluation: no time stepping, hence no MPM warm-up and no error growing over a rollout. It knows
 only what R, V and I need (initial and final positions), not the path between.
 """
+
 from __future__ import annotations
 
 import pickle
@@ -56,12 +57,18 @@ class EndStateModel(torch.nn.Module):
             return []
         images = torch.from_numpy(np.stack([self.inputs(p, f) for p, f in zip(initials, frictions)])).to(device)
         out = self(images).cpu().numpy() * self.normalization.displacement_scale_m
-        return [(np.asarray(p, dtype=float) + self.lattice.gather(image, p)).astype(np.float32)
-                for p, image in zip(initials, out)]
+        return [
+            (np.asarray(p, dtype=float) + self.lattice.gather(image, p)).astype(np.float32)
+            for p, image in zip(initials, out)
+        ]
 
     def save(self, path: str | Path, extra: dict | None = None) -> None:
-        state = {"lattice": asdict(self.lattice), "normalization": asdict(self.normalization), "widths": self.widths,
-                 "weights": self.state_dict()} | (extra or {})
+        state = {
+            "lattice": asdict(self.lattice),
+            "normalization": asdict(self.normalization),
+            "widths": self.widths,
+            "weights": self.state_dict(),
+        } | (extra or {})
         with atomic_path(path) as partial:
             torch.save(state, partial)
 
@@ -70,8 +77,9 @@ def load_model(path: str | Path, device: str = "cpu") -> EndStateModel:
     """A trained end-state model from ``path`` (a model file or a checkpoint), naming the file if unusable."""
     try:
         state = torch.load(path, map_location=device, weights_only=False)
-        model = EndStateModel(Lattice(**state["lattice"]), Normalization(**state["normalization"]),
-                              tuple(state["widths"]))
+        model = EndStateModel(
+            Lattice(**state["lattice"]), Normalization(**state["normalization"]), tuple(state["widths"])
+        )
         model.load_state_dict(state["weights"])
     except (OSError, RuntimeError, KeyError, TypeError, EOFError, ValueError, pickle.UnpicklingError) as error:
         raise EndStateModelError(f"{path}: not a usable end-state model ({type(error).__name__}: {error})") from error

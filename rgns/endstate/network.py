@@ -4,6 +4,7 @@ Four levels of two 3 × 3 convolutions, average-pool down and bilinear up with s
 on the default 160 × 40 lattice the coarsest level is 20 × 5 pixels, each seeing the whole slope
 after the global mean is added back, since a point's fate depends on the slope as a whole.
 """
+
 from __future__ import annotations
 
 import torch
@@ -28,8 +29,9 @@ class UNet(nn.Module):
 
     def __init__(self, inputs: int, outputs: int, widths: tuple[int, ...] = (16, 32, 64, 96)):
         super().__init__()
-        self.down = nn.ModuleList([ConvBlock(inputs, widths[0])]
-                                  + [ConvBlock(widths[k], widths[k + 1]) for k in range(len(widths) - 1)])
+        self.down = nn.ModuleList(
+            [ConvBlock(inputs, widths[0])] + [ConvBlock(widths[k], widths[k + 1]) for k in range(len(widths) - 1)]
+        )
         self.up = nn.ModuleList([ConvBlock(widths[k + 1] + widths[k], widths[k]) for k in range(len(widths) - 1)])
         self.context = nn.Linear(widths[-1], widths[-1])
         self.head = nn.Conv2d(widths[0], outputs, 1)

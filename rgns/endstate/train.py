@@ -12,22 +12,23 @@ left the rear of a failure short of the threshold: on 64 realizations of the DEM
 Resumable: a checkpoint every ``checkpoint_every`` steps holds the weights, the optimiser, the
 schedule and the batch stream, so a killed run resumed continues exactly as an uninterrupted one.
 """
+
 from __future__ import annotations
 
 import csv
 import logging
 import time
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Iterable
 
 import numpy as np
 import torch
 import torch.nn.functional as F
 
+from rgns.endstate.data import EndState
 from rgns.endstate.lattice import Lattice
 from rgns.endstate.model import EndStateModel, Normalization
-from rgns.endstate.data import EndState
 
 log = logging.getLogger(__name__)
 CHECKPOINT = "endstate-latest.pt"
@@ -70,8 +71,9 @@ def normalization_of(states: list[EndState]) -> Normalization:
     """Friction centre and scale over every point; displacement scale: the RMS final displacement."""
     friction = np.concatenate([s.friction_deg for s in states])
     moved = np.concatenate([np.linalg.norm(s.final - s.initial, axis=1) for s in states])
-    return Normalization(float(friction.mean()), float(max(friction.std(), 1.0)),
-                         float(max(np.sqrt(np.mean(moved ** 2)), 0.1)))
+    return Normalization(
+        float(friction.mean()), float(max(friction.std(), 1.0)), float(max(np.sqrt(np.mean(moved**2)), 0.1))
+    )
 
 
 def examples(model: EndStateModel, states: Iterable[EndState]) -> Examples:
@@ -92,15 +94,18 @@ class ThresholdTerm:
     width: float
 
     @classmethod
-    def of(cls, settings: EndStateTrainSettings, displacement_scale_m: float) -> "ThresholdTerm | None":
+    def of(cls, settings: EndStateTrainSettings, displacement_scale_m: float) -> ThresholdTerm | None:
         if settings.threshold_weight <= 0:
             return None
-        return cls(settings.threshold_weight, settings.threshold_m / displacement_scale_m,
-                   settings.threshold_width_m / displacement_scale_m)
+        return cls(
+            settings.threshold_weight,
+            settings.threshold_m / displacement_scale_m,
+            settings.threshold_width_m / displacement_scale_m,
+        )
 
     def __call__(self, predicted: torch.Tensor, targets: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         moved = (targets.norm(dim=1, keepdim=True) >= self.threshold).float()
-        length = torch.sqrt((predicted ** 2).sum(dim=1, keepdim=True) + 1e-12)
+        length = torch.sqrt((predicted**2).sum(dim=1, keepdim=True) + 1e-12)
         entropy = F.binary_cross_entropy_with_logits((length - self.threshold) / self.width, moved, reduction="none")
         return self.weight * (entropy * mask).sum() / mask.sum()
 
@@ -123,9 +128,16 @@ def held_out_loss(model: EndStateModel, batch: Examples) -> tuple[float, float]:
     return float(masked_loss(model, batch)), float(baseline)
 
 
-def training_step(model: EndStateModel, optimizer: torch.optim.Optimizer, schedule: torch.optim.lr_scheduler.LRScheduler,
-                  data: Examples, batch_size: int, batches: torch.Generator, gradient_clip: float,
-                  threshold: ThresholdTerm | None = None) -> float:
+def training_step(
+    model: EndStateModel,
+    optimizer: torch.optim.Optimizer,
+    schedule: torch.optim.lr_scheduler.LRScheduler,
+    data: Examples,
+    batch_size: int,
+    batches: torch.Generator,
+    gradient_clip: float,
+    threshold: ThresholdTerm | None = None,
+) -> float:
     """One optimiser step on a batch drawn with replacement from ``data``; its loss."""
     pick = torch.randint(0, len(data), (batch_size,), generator=batches)
     loss = masked_loss(model, Examples(data.inputs[pick], data.targets[pick]), threshold)
@@ -137,8 +149,13 @@ def training_step(model: EndStateModel, optimizer: torch.optim.Optimizer, schedu
     return loss.item()
 
 
-def train(states: list[EndState], held_out: list[EndState], lattice: Lattice,
-          settings: EndStateTrainSettings, out_dir: str | Path) -> tuple[EndStateModel, list[dict]]:
+def train(
+    states: list[EndState],
+    held_out: list[EndState],
+    lattice: Lattice,
+    settings: EndStateTrainSettings,
+    out_dir: str | Path,
+) -> tuple[EndStateModel, list[dict]]:
     """Train (or resume from ``out_dir``'s checkpoint) and return the model and its history."""
     torch.set_num_threads(settings.threads)
     torch.manual_seed(settings.seed)
@@ -167,23 +184,47 @@ def train(states: list[EndState], held_out: list[EndState], lattice: Lattice,
     running: list[float] = []
     model.train()
     for step in range(start, settings.steps):
-        running.append(training_step(model, optimizer, schedule, data, settings.batch_size, batches,
-                                     settings.gradient_clip, threshold))
+        running.append(
+            training_step(
+                model, optimizer, schedule, data, settings.batch_size, batches, settings.gradient_clip, threshold
+            )
+        )
         done = step + 1
         if done % settings.checkpoint_every == 0 or done == settings.steps:
             model.eval()
             valid_loss, mean_loss = held_out_loss(model, valid)
             model.train()
-            row = {"step": done, "train_loss": float(np.mean(running)), "valid_loss": valid_loss,
-                   "valid_mean_predictor_loss": mean_loss, "lr": schedule.get_last_lr()[0],
-                   "elapsed_s": time.perf_counter() - began}
+            row = {
+                "step": done,
+                "train_loss": float(np.mean(running)),
+                "valid_loss": valid_loss,
+                "valid_mean_predictor_loss": mean_loss,
+                "lr": schedule.get_last_lr()[0],
+                "elapsed_s": time.perf_counter() - began,
+            }
             running = []
             history.append(row)
-            log.info("step %d/%d  loss %.4g  held-out %.4g (mean predictor %.4g)  %.0f s", done, settings.steps,
-                     row["train_loss"], valid_loss, mean_loss, row["elapsed_s"])
-            model.save(latest, {"optimizer": optimizer.state_dict(), "schedule": schedule.state_dict(),
-                                "batches": batches.get_state(), "step": done, "history": history,
-                                "elapsed_s": row["elapsed_s"], "settings": asdict(settings)})
+            log.info(
+                "step %d/%d  loss %.4g  held-out %.4g (mean predictor %.4g)  %.0f s",
+                done,
+                settings.steps,
+                row["train_loss"],
+                valid_loss,
+                mean_loss,
+                row["elapsed_s"],
+            )
+            model.save(
+                latest,
+                {
+                    "optimizer": optimizer.state_dict(),
+                    "schedule": schedule.state_dict(),
+                    "batches": batches.get_state(),
+                    "step": done,
+                    "history": history,
+                    "elapsed_s": row["elapsed_s"],
+                    "settings": asdict(settings),
+                },
+            )
     return model.eval(), history
 
 

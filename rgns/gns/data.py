@@ -11,6 +11,7 @@ Two things about MPM trajectories decide whether a GNS can learn from them (docs
 Small sets are read into memory once; large ones are read window by window from the HDF5 file
 (positions are chunked one frame per chunk, so a window is a few chunk reads).
 """
+
 from __future__ import annotations
 
 import math
@@ -24,7 +25,7 @@ from scipy.ndimage import gaussian_filter1d
 from rgns.gns.simulator import GraphInput, Normalization
 from rgns.trajectories import TrajectoryError
 
-IN_MEMORY_BYTES = 2 * 1024 ** 3
+IN_MEMORY_BYTES = 2 * 1024**3
 TRUNCATE = 4.0  # the Gaussian filter's reach in standard deviations (scipy's default)
 
 
@@ -60,13 +61,16 @@ class WindowSampler:
         if self.frames < self.length:
             raise TrajectoryError(f"{path}: {self.frames} frames, fewer than the {self.length} a window needs")
         self.particle_type = [torch.as_tensor(g["particle_type"][()], dtype=torch.long) for g in self.groups]
-        self.tan_friction = [torch.tensor(np.tan(np.radians(g["friction_deg"][()])), dtype=torch.float32)
-                             for g in self.groups]
+        self.tan_friction = [
+            torch.tensor(np.tan(np.radians(g["friction_deg"][()])), dtype=torch.float32) for g in self.groups
+        ]
         self.volume_m2 = [g["volume_m2"][()] for g in self.groups]
         size = sum(g["positions"].size for g in self.groups) * 4
         self.positions = [g["positions"][()] for g in self.groups] if size <= IN_MEMORY_BYTES else None
-        self.real = [real_frames(self.positions[k] if self.positions is not None else g["positions"][()])
-                     for k, g in enumerate(self.groups)]
+        self.real = [
+            real_frames(self.positions[k] if self.positions is not None else g["positions"][()])
+            for k, g in enumerate(self.groups)
+        ]
         # windows lie inside a trajectory's real frames; where a run went on to the last frame, the
         # smoothing would hold that frame, so the last reach of frames is left out too (an early-stopped
         # run is at rest at its end and an MPM run at its start: holding those is right)
@@ -87,7 +91,7 @@ class WindowSampler:
     def frames_of(self, trajectory: int, start: int, count: int) -> np.ndarray:
         """Raw frames [count, N, 2] of one trajectory from ``start``."""
         source = self.positions[trajectory] if self.positions is not None else self.groups[trajectory]["positions"]
-        return np.asarray(source[start:start + count], dtype=np.float32)
+        return np.asarray(source[start : start + count], dtype=np.float32)
 
     def smoothed_frames_of(self, trajectory: int, start: int, count: int) -> np.ndarray:
         """Frames [count, N, 2] of the trajectory smoothed in time over its real frames (edges held)."""
@@ -96,9 +100,14 @@ class WindowSampler:
         reach = math.ceil(TRUNCATE * self.smoothing_frames)
         end = self.real[trajectory]
         first, last = max(0, start - reach), min(end, start + count + reach)
-        smooth = gaussian_filter1d(self.frames_of(trajectory, first, last - first), self.smoothing_frames, axis=0,
-                                   mode="nearest", truncate=TRUNCATE)
-        return smooth[start - first:start - first + count].astype(np.float32)
+        smooth = gaussian_filter1d(
+            self.frames_of(trajectory, first, last - first),
+            self.smoothing_frames,
+            axis=0,
+            mode="nearest",
+            truncate=TRUNCATE,
+        )
+        return smooth[start - first : start - first + count].astype(np.float32)
 
     def window(self, picks: list[tuple[int, int]]) -> Window:
         """The windows starting at (trajectory, frame) for each pick, as one batch."""
@@ -110,9 +119,9 @@ class WindowSampler:
             friction.append(self.tan_friction[trajectory])
             batch.append(torch.full((frames.shape[0],), graph, dtype=torch.long))
         positions = torch.cat(positions)
-        inputs = positions[:, :self.history + 1]
+        inputs = positions[:, : self.history + 1]
         graph = GraphInput(inputs.contiguous(), torch.cat(types), torch.cat(friction), torch.cat(batch), len(picks))
-        return Window(graph, positions[:, self.history + 1:].contiguous())
+        return Window(graph, positions[:, self.history + 1 :].contiguous())
 
     def draw(self, rng: np.random.Generator, graphs: int) -> list[tuple[int, int]]:
         """``graphs`` (trajectory, start) picks, uniform over every window of real frames."""
@@ -133,12 +142,17 @@ class WindowSampler:
             frames = self.smoothed_frames_of(k, 0, self.real[k]).astype(np.float64)
             for order, values in enumerate((np.diff(frames, 1, axis=0), np.diff(frames, 2, axis=0))):
                 flat = values.reshape(-1, 2)
-                sums[order] += [np.full(2, len(flat)), flat.sum(0), (flat ** 2).sum(0)]
+                sums[order] += [np.full(2, len(flat)), flat.sum(0), (flat**2).sum(0)]
         count = np.maximum(sums[:, 0], 1)
         mean = sums[:, 1] / count
-        std = np.sqrt(np.maximum(sums[:, 2] / count - mean ** 2, 0.0) + noise_std ** 2)
+        std = np.sqrt(np.maximum(sums[:, 2] / count - mean**2, 0.0) + noise_std**2)
         std = np.maximum(std, 1e-8)  # a set at rest must not divide by zero
         tangent = torch.cat(self.tan_friction).numpy().astype(np.float64)
-        return Normalization(velocity_mean=mean[0].tolist(), velocity_std=std[0].tolist(),
-                             acceleration_mean=mean[1].tolist(), acceleration_std=std[1].tolist(),
-                             tan_friction_mean=float(tangent.mean()), tan_friction_std=float(max(tangent.std(), 1e-3)))
+        return Normalization(
+            velocity_mean=mean[0].tolist(),
+            velocity_std=std[0].tolist(),
+            acceleration_mean=mean[1].tolist(),
+            acceleration_std=std[1].tolist(),
+            tan_friction_mean=float(tangent.mean()),
+            tan_friction_std=float(max(tangent.std(), 1e-3)),
+        )

@@ -1,4 +1,5 @@
 """How well a trained simulator reproduces a packed set: one-step and full-rollout position errors."""
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -12,8 +13,13 @@ from rgns.gns.simulator import LearnedSimulator
 
 
 @torch.no_grad()
-def evaluate(simulator: LearnedSimulator, packed_path: str, windows: int = 64, seed: int = 0,
-             settings: RolloutSettings | None = None) -> dict:
+def evaluate(
+    simulator: LearnedSimulator,
+    packed_path: str,
+    windows: int = 64,
+    seed: int = 0,
+    settings: RolloutSettings | None = None,
+) -> dict:
     """Mean one-step position error over random windows, and full-rollout errors per trajectory.
 
     Each rollout hands over from MPM after ``settings.handover(history)`` frames, as the Monte Carlo
@@ -33,8 +39,9 @@ def evaluate(simulator: LearnedSimulator, packed_path: str, windows: int = 64, s
     per_trajectory = []
     for truth, result in zip(truths, results):
         error = np.linalg.norm(result.positions - truth, axis=2).mean(axis=1)  # [T]
-        per_trajectory.append({"mean_error_m": float(error.mean()), "final_error_m": float(error[-1]),
-                               "status": result.status})
+        per_trajectory.append(
+            {"mean_error_m": float(error.mean()), "final_error_m": float(error[-1]), "status": result.status}
+        )
     return {
         "one_step_error_m": float(np.mean(one_step)),
         "rollout_mean_error_m": float(np.mean([p["mean_error_m"] for p in per_trajectory])),

@@ -5,6 +5,7 @@ graphs never mix; every particle looks in its own and the 8 surrounding cells (a
 array and ``searchsorted`` give each cell's members), and candidate pairs closer than r are kept.
 Exact: every pair within r, no neighbour cap, no self edges.
 """
+
 from __future__ import annotations
 
 import torch

@@ -4,6 +4,7 @@ Knows nothing about physics: node and edge feature vectors in, one vector per no
 processor is a stack of unshared interaction layers with residual updates of both edges and
 nodes; messages are summed at the receivers.
 """
+
 from __future__ import annotations
 
 import torch
@@ -37,8 +38,9 @@ class InteractionLayer(nn.Module):
         self.edge_rest = nn.Sequential(nn.ReLU(), mlp(width, width, hidden_layers - 1, latent))
         self.node_mlp = mlp(2 * latent, width, hidden_layers, latent)
 
-    def forward(self, nodes: torch.Tensor, edges: torch.Tensor, senders: torch.Tensor,
-                receivers: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    def forward(
+        self, nodes: torch.Tensor, edges: torch.Tensor, senders: torch.Tensor, receivers: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
         hidden = self.edge_in(edges) + self.sender_in(nodes)[senders] + self.receiver_in(nodes)[receivers]
         messages = self.edge_rest(hidden)
         summed = torch.zeros_like(nodes).index_add_(0, receivers, messages)
@@ -48,16 +50,25 @@ class InteractionLayer(nn.Module):
 class EncodeProcessDecode(nn.Module):
     """Node / edge encoders, ``steps`` interaction layers, a node decoder."""
 
-    def __init__(self, node_features: int, edge_features: int, outputs: int, latent: int, width: int,
-                 hidden_layers: int, steps: int):
+    def __init__(
+        self,
+        node_features: int,
+        edge_features: int,
+        outputs: int,
+        latent: int,
+        width: int,
+        hidden_layers: int,
+        steps: int,
+    ):
         super().__init__()
         self.node_encoder = mlp(node_features, width, hidden_layers, latent)
         self.edge_encoder = mlp(edge_features, width, hidden_layers, latent)
         self.processor = nn.ModuleList(InteractionLayer(latent, width, hidden_layers) for _ in range(steps))
         self.decoder = mlp(latent, width, hidden_layers, outputs, layer_norm=False)
 
-    def forward(self, node_features: torch.Tensor, edge_features: torch.Tensor, senders: torch.Tensor,
-                receivers: torch.Tensor) -> torch.Tensor:
+    def forward(
+        self, node_features: torch.Tensor, edge_features: torch.Tensor, senders: torch.Tensor, receivers: torch.Tensor
+    ) -> torch.Tensor:
         nodes, edges = self.node_encoder(node_features), self.edge_encoder(edge_features)
         for layer in self.processor:
             nodes, edges = layer(nodes, edges, senders, receivers)

@@ -20,6 +20,7 @@ counted in ``pushed_back``). A realization with a non-finite position, or a part
 ``domain_margin_m`` past the domain in one frame, is flagged ``diverged`` and stopped; the others go
 on.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -78,9 +79,15 @@ def _subgraph(senders: torch.Tensor, receivers: torch.Tensor, keep: torch.Tensor
 
 
 @torch.no_grad()
-def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_types: list[np.ndarray],
-            tan_frictions: list[np.ndarray], frames: int, settings: RolloutSettings | None = None,
-            device: str = "cpu") -> list[RolloutResult]:
+def rollout(
+    simulator: LearnedSimulator,
+    histories: list[np.ndarray],
+    particle_types: list[np.ndarray],
+    tan_frictions: list[np.ndarray],
+    frames: int,
+    settings: RolloutSettings | None = None,
+    device: str = "cpu",
+) -> list[RolloutResult]:
     """Roll every realization (history [H+1, N_b, 2]) forward to ``frames`` frames in total."""
     settings = settings or RolloutSettings()
     device = torch.device(device)
@@ -102,15 +109,22 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
     margin = settings.domain_margin_m
     for frame in range(histories[0].shape[0], frames):
         active = live[batch]
-        senders, receivers = radius_graph(history[:, -1], torch.where(active, batch, n_graphs), simulator.settings.radius_m)
+        senders, receivers = radius_graph(
+            history[:, -1], torch.where(active, batch, n_graphs), simulator.settings.radius_m
+        )
         moving_edges = active[senders] & active[receivers]
         senders, receivers = senders[moving_edges], receivers[moving_edges]
         update = active.clone()
         if settings.skip_rest:
             speeds = (history[:, 1:] - history[:, :-1]).norm(dim=2).amax(dim=1)
-            awake = (speeds > settings.rest_velocity) | ((history[:, -1] - origin).norm(dim=1) > settings.rest_displacement)
-            near_awake = torch.zeros_like(awake).index_add_(0, receivers, awake[senders]) \
-                if len(senders) else torch.zeros_like(awake)
+            awake = (speeds > settings.rest_velocity) | (
+                (history[:, -1] - origin).norm(dim=1) > settings.rest_displacement
+            )
+            near_awake = (
+                torch.zeros_like(awake).index_add_(0, receivers, awake[senders])
+                if len(senders)
+                else torch.zeros_like(awake)
+            )
             update = active & (awake | near_awake)
         involved = update.clone()
         for _ in range(settings.context_hops):  # neighbours of updated particles give context
@@ -134,7 +148,8 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
 
         velocity2 = (history[:, -1] - history[:, -2]).pow(2).sum(1)
         mean_v2 = torch.zeros(n_graphs, device=device).index_add_(0, batch, velocity2) / torch.as_tensor(
-            counts, device=device, dtype=torch.float32)
+            counts, device=device, dtype=torch.float32
+        )
         outside = torch.zeros_like(update)
         outside[ids[chosen]] = far[chosen]
         bad = torch.zeros(n_graphs, dtype=torch.long, device=device).index_add_(0, batch, outside.long()) > 0
@@ -171,8 +186,14 @@ def rollout(simulator: LearnedSimulator, histories: list[np.ndarray], particle_t
     return results
 
 
-def rollout_soil(simulator: LearnedSimulator, histories: list[np.ndarray], friction_deg: list[np.ndarray],
-                 frames: int, settings: RolloutSettings | None = None, device: str = "cpu") -> list[RolloutResult]:
+def rollout_soil(
+    simulator: LearnedSimulator,
+    histories: list[np.ndarray],
+    friction_deg: list[np.ndarray],
+    frames: int,
+    settings: RolloutSettings | None = None,
+    device: str = "cpu",
+) -> list[RolloutResult]:
     """Roll out soil-only realizations given each particle's friction angle, from MPM frames
     [W, N, 2] (or more): the GNS takes over after ``settings.warmup_frames`` = W frames of MPM
     (at least ``history + 1``, as every GNS rollout starts from simulator frames). The results

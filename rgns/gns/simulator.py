@@ -7,6 +7,7 @@ displacement over the radius and its length. The network predicts a normalised a
 integrated with semi-implicit Euler at dt = 1 frame. Training adds random-walk noise to the input
 positions and corrects the target so the model learns to undo it.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
@@ -72,13 +73,23 @@ class LearnedSimulator(nn.Module):
         node_features = 2 * settings.history + 4 + TYPE_EMBEDDING + 1
         if settings.acceleration_features:
             node_features += 2 * (settings.history - 1)
-        self.network = EncodeProcessDecode(node_features, 3, 2, settings.latent_size, settings.mlp_width,
-                                           settings.mlp_hidden_layers, settings.message_passing_steps)
+        self.network = EncodeProcessDecode(
+            node_features,
+            3,
+            2,
+            settings.latent_size,
+            settings.mlp_width,
+            settings.mlp_hidden_layers,
+            settings.message_passing_steps,
+        )
 
     def config(self) -> dict:
         """What it takes to rebuild this simulator (saved with the weights)."""
-        return {"settings": asdict(self.settings), "normalization": asdict(self.normalization),
-                "bounds": self.bounds.tolist()}
+        return {
+            "settings": asdict(self.settings),
+            "normalization": asdict(self.normalization),
+            "bounds": self.bounds.tolist(),
+        }
 
     def graph_features(self, graph: GraphInput, senders: torch.Tensor, receivers: torch.Tensor):
         radius = self.settings.radius_m
@@ -92,16 +103,18 @@ class LearnedSimulator(nn.Module):
         if self.settings.acceleration_features:
             accelerations = raw_velocities[:, 1:] - raw_velocities[:, :-1]
             parts.append(((accelerations - self.acceleration_mean) / self.acceleration_std).flatten(1))
-        nodes = torch.cat([*parts, walls.clamp(-1.0, 1.0), self.type_embedding(graph.particle_type),
-                           tan_friction[:, None]], dim=1)
+        nodes = torch.cat(
+            [*parts, walls.clamp(-1.0, 1.0), self.type_embedding(graph.particle_type), tan_friction[:, None]], dim=1
+        )
         displacement = (last[senders] - last[receivers]) / radius
         edges = torch.cat([displacement, displacement.norm(dim=1, keepdim=True)], dim=1)
         return nodes, edges
 
     def forward(self, graph: GraphInput, edges: tuple[torch.Tensor, torch.Tensor] | None = None) -> torch.Tensor:
         """Normalised acceleration [N, 2] of every particle."""
-        senders, receivers = edges if edges is not None else radius_graph(
-            graph.positions[:, -1], graph.batch, self.settings.radius_m)
+        senders, receivers = (
+            edges if edges is not None else radius_graph(graph.positions[:, -1], graph.batch, self.settings.radius_m)
+        )
         nodes, edge_features = self.graph_features(graph, senders, receivers)
         return self.network(nodes, edge_features, senders, receivers)
 
@@ -112,11 +125,13 @@ class LearnedSimulator(nn.Module):
         return graph.positions[:, -1] + velocity
 
 
-def random_walk_noise(positions: torch.Tensor, noise_std: float, generator: torch.Generator | None = None) -> torch.Tensor:
+def random_walk_noise(
+    positions: torch.Tensor, noise_std: float, generator: torch.Generator | None = None
+) -> torch.Tensor:
     """Noise [N, T, 2] for a position history: a random walk of velocities whose last step has
     standard deviation ``noise_std``; the first position is left clean."""
     steps = positions.shape[1] - 1
-    velocity_noise = torch.randn(positions.shape[0], steps, 2, generator=generator) * (noise_std / steps ** 0.5)
+    velocity_noise = torch.randn(positions.shape[0], steps, 2, generator=generator) * (noise_std / steps**0.5)
     walk = torch.cumsum(velocity_noise, dim=1)
     return torch.cat([torch.zeros_like(walk[:, :1]), torch.cumsum(walk, dim=1)], dim=1).to(positions)
 
@@ -132,7 +147,9 @@ class OneStepLoss(nn.Module):
         self.simulator, self.target_clip = simulator, target_clip
 
     def forward(self, graph: GraphInput, target: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
-        noisy = GraphInput(graph.positions + noise, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs)
+        noisy = GraphInput(
+            graph.positions + noise, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs
+        )
         # the target keeps the clean next position moved by the last noise step: only velocities are noised
         target_normalized = self.normalized_target(noisy, target + noise[:, -1])
         return self._graph_mean((self.simulator(noisy) - target_normalized).pow(2).sum(dim=1), graph)

@@ -13,6 +13,7 @@ optimizer state, learning-rate position and random streams (saved with it). With
 or ``processes > 1`` for gloo on CPU) the loss module is wrapped in DistributedDataParallel and
 *called through the wrapper*, so gradients are averaged across processes.
 """
+
 from __future__ import annotations
 
 import csv
@@ -66,14 +67,18 @@ class TrainSettings:
     threads: int = 1
 
 
-def settings_from_config(section: dict[str, Any], cell_size_m: float,
-                         selection_warmup_frames: int | None = None) -> tuple[ModelSettings, TrainSettings]:
+def settings_from_config(
+    section: dict[str, Any], cell_size_m: float, selection_warmup_frames: int | None = None
+) -> tuple[ModelSettings, TrainSettings]:
     """Model and training settings from the config's ``gns`` section (and the Monte Carlo's MPM
     warm-up in frames, which the held-out rollouts that select the model start from)."""
     model = ModelSettings(
-        latent_size=section["latent_size"], mlp_width=section["mlp_width"],
-        mlp_hidden_layers=section["mlp_hidden_layers"], message_passing_steps=section["message_passing_steps"],
-        history=section["history"], radius_m=section["connectivity_radius_cells"] * cell_size_m,
+        latent_size=section["latent_size"],
+        mlp_width=section["mlp_width"],
+        mlp_hidden_layers=section["mlp_hidden_layers"],
+        message_passing_steps=section["message_passing_steps"],
+        history=section["history"],
+        radius_m=section["connectivity_radius_cells"] * cell_size_m,
         acceleration_features=section["acceleration_features"],
     )
     train = TrainSettings(**{key: section[key] for key in TrainSettings.__dataclass_fields__ if key in section})
@@ -94,11 +99,18 @@ def learning_rate(settings: TrainSettings, step: int) -> float:
 
 
 def _to(graph: GraphInput, device: torch.device) -> GraphInput:
-    return GraphInput(graph.positions.to(device), graph.particle_type.to(device), graph.tan_friction.to(device),
-                      graph.batch.to(device), graph.n_graphs)
+    return GraphInput(
+        graph.positions.to(device),
+        graph.particle_type.to(device),
+        graph.tan_friction.to(device),
+        graph.batch.to(device),
+        graph.n_graphs,
+    )
 
 
-def pushforward(simulator: LearnedSimulator, graph: GraphInput, targets: torch.Tensor) -> tuple[GraphInput, torch.Tensor]:
+def pushforward(
+    simulator: LearnedSimulator, graph: GraphInput, targets: torch.Tensor
+) -> tuple[GraphInput, torch.Tensor]:
     """Unroll the model over all but the last target without gradients; train on the last one."""
     positions = graph.positions
     with torch.no_grad():
@@ -108,8 +120,6 @@ def pushforward(simulator: LearnedSimulator, graph: GraphInput, targets: torch.T
     return GraphInput(positions, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs), targets[:, -1]
 
 
-
-
 def load_simulator(path: str | Path, device: str = "cpu") -> LearnedSimulator:
     """A trained simulator from ``gns.pt`` (or a checkpoint), naming the file if it is unusable."""
     try:
@@ -117,8 +127,9 @@ def load_simulator(path: str | Path, device: str = "cpu") -> LearnedSimulator:
         config = state["simulator"]
         from rgns.gns.simulator import Normalization
 
-        simulator = LearnedSimulator(ModelSettings(**config["settings"]), Normalization(**config["normalization"]),
-                                     np.array(config["bounds"]))
+        simulator = LearnedSimulator(
+            ModelSettings(**config["settings"]), Normalization(**config["normalization"]), np.array(config["bounds"])
+        )
         simulator.load_state_dict(state["model"])
     except (OSError, KeyError, RuntimeError, TypeError, EOFError, pickle.UnpicklingError) as error:
         raise ValueError(f"{path}: not a usable GNS model file ({type(error).__name__}: {error})") from error
@@ -132,12 +143,13 @@ VALIDATION_BATCH = 8
 def fixed_windows(sampler: WindowSampler, count: int) -> list[list[tuple[int, int]]]:
     """The same ``count`` held-out windows at every validation, in batches."""
     picks = sampler.draw(np.random.default_rng(VALIDATION_SEED), count)
-    return [picks[i:i + VALIDATION_BATCH] for i in range(0, len(picks), VALIDATION_BATCH)]
+    return [picks[i : i + VALIDATION_BATCH] for i in range(0, len(picks), VALIDATION_BATCH)]
 
 
 @torch.no_grad()
-def one_step_losses(simulator: LearnedSimulator, sampler: WindowSampler, batches: list, target_clip: float | None,
-                    device: torch.device) -> tuple[float, float]:
+def one_step_losses(
+    simulator: LearnedSimulator, sampler: WindowSampler, batches: list, target_clip: float | None, device: torch.device
+) -> tuple[float, float]:
     """The model's noise-free one-step loss and the mean predictor's (always the mean acceleration,
     i.e. 0 in normalised units) on the same windows."""
     objective = OneStepLoss(simulator, target_clip)
@@ -151,16 +163,23 @@ def one_step_losses(simulator: LearnedSimulator, sampler: WindowSampler, batches
     return sum(model) / count, sum(mean) / count
 
 
-def rollout_score(simulator: LearnedSimulator, sampler: WindowSampler, trajectories: int, warmup_frames: int,
-                  device: torch.device) -> dict:
+def rollout_score(
+    simulator: LearnedSimulator, sampler: WindowSampler, trajectories: int, warmup_frames: int, device: torch.device
+) -> dict:
     """Full rollouts of the first held-out trajectories (after ``warmup_frames`` of their MPM run,
     as the Monte Carlo starts them) against their MPM runs: the mean absolute error of R, V and I,
     each over the mean MPM value plus one (m or m²), averaged into one score (plus the diverged count)."""
     picks = list(range(min(trajectories, sampler.n_trajectories)))
     truths = [sampler.frames_of(k, 0, sampler.frames) for k in picks]
     friction = [np.degrees(np.arctan(sampler.tan_friction[k].numpy())) for k in picks]
-    results = rollout_soil(simulator, truths, friction, sampler.frames,
-                           RolloutSettings(early_stop=True, keep="ends", warmup_frames=warmup_frames), str(device))
+    results = rollout_soil(
+        simulator,
+        truths,
+        friction,
+        sampler.frames,
+        RolloutSettings(early_stop=True, keep="ends", warmup_frames=warmup_frames),
+        str(device),
+    )
     errors = {"runout_m": [], "volume_m2": [], "influence_m": []}
     reference = {key: [] for key in errors}
     diverged = 0
@@ -173,8 +192,11 @@ def rollout_score(simulator: LearnedSimulator, sampler: WindowSampler, trajector
             errors[key].append(abs(gns[key] - mpm[key]))
             reference[key].append(abs(mpm[key]))
     relative = [np.mean(errors[key]) / (np.mean(reference[key]) + 1.0) for key in errors]
-    return {"valid_rollout_score": float(np.mean(relative) + diverged),
-            "valid_runout_error_m": float(np.mean(errors["runout_m"])), "valid_diverged": diverged}
+    return {
+        "valid_rollout_score": float(np.mean(relative) + diverged),
+        "valid_runout_error_m": float(np.mean(errors["runout_m"])),
+        "valid_diverged": diverged,
+    }
 
 
 def particle_crest_x(initial: np.ndarray) -> float:
@@ -183,19 +205,30 @@ def particle_crest_x(initial: np.ndarray) -> float:
     return float(initial[top, 0].max())
 
 
-def validate(simulator: LearnedSimulator, sampler: WindowSampler, batches: list, settings: TrainSettings,
-             device: torch.device) -> dict:
+def validate(
+    simulator: LearnedSimulator, sampler: WindowSampler, batches: list, settings: TrainSettings, device: torch.device
+) -> dict:
     """One-step loss beside the mean predictor's, and the held-out rollout score."""
     loss, mean_loss = one_step_losses(simulator, sampler, batches, settings.target_clip, device)
     row = {"valid_one_step_loss": loss, "valid_mean_predictor_loss": mean_loss}
     if settings.selection_trajectories:
-        row |= rollout_score(simulator, sampler, settings.selection_trajectories, settings.selection_warmup_frames,
-                             device)
+        row |= rollout_score(
+            simulator, sampler, settings.selection_trajectories, settings.selection_warmup_frames, device
+        )
     return row
 
 
-RESUME_NEUTRAL = ("steps", "checkpoint_every", "validate_every", "validation_windows", "selection_trajectories",
-                  "selection_warmup_frames", "log_every", "device", "threads")
+RESUME_NEUTRAL = (
+    "steps",
+    "checkpoint_every",
+    "validate_every",
+    "validation_windows",
+    "selection_trajectories",
+    "selection_warmup_frames",
+    "log_every",
+    "device",
+    "threads",
+)
 
 
 def fingerprint(simulator: LearnedSimulator, settings: TrainSettings) -> str:
@@ -210,8 +243,15 @@ def _save(path: Path, state: dict[str, Any]) -> None:
         torch.save(state, partial)
 
 
-def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_path: str, out_dir: str | Path,
-          final_model: str | Path | None = None, init_model: str | Path | None = None) -> dict:
+def train(
+    model: ModelSettings,
+    settings: TrainSettings,
+    train_path: str,
+    valid_path: str,
+    out_dir: str | Path,
+    final_model: str | Path | None = None,
+    init_model: str | Path | None = None,
+) -> dict:
     """Train (or resume) and write ``gns.pt``, ``history.csv`` and checkpoints into ``out_dir``.
     With ``init_model`` (fine-tuning) the weights and normalisation start from that model."""
     distributed = dist.is_available() and dist.is_initialized()
@@ -221,8 +261,9 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
     out_dir = Path(out_dir)
     checkpoints = out_dir / "checkpoints"
     checkpoints.mkdir(parents=True, exist_ok=True)
-    train_windows = WindowSampler(train_path, model.history, max(1, settings.pushforward_steps + 1),
-                                  settings.smoothing_frames)
+    train_windows = WindowSampler(
+        train_path, model.history, max(1, settings.pushforward_steps + 1), settings.smoothing_frames
+    )
     valid_windows = WindowSampler(valid_path, model.history, 1, settings.smoothing_frames)
     batches = fixed_windows(valid_windows, settings.validation_windows)
     torch.manual_seed(settings.seed)
@@ -230,9 +271,11 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
         simulator = load_simulator(init_model, str(device))
         if simulator.settings != model:
             differing = [key for key, value in asdict(model).items() if getattr(simulator.settings, key) != value]
-            raise ValueError(f"{init_model}: its architecture differs from config gns in {', '.join(differing)} "
-                             f"({', '.join(f'{k} {getattr(simulator.settings, k)}' for k in differing)}): "
-                             "fine-tuning needs the same")
+            raise ValueError(
+                f"{init_model}: its architecture differs from config gns in {', '.join(differing)} "
+                f"({', '.join(f'{k} {getattr(simulator.settings, k)}' for k in differing)}): "
+                "fine-tuning needs the same"
+            )
     else:
         simulator = LearnedSimulator(model, train_windows.normalization(settings.noise_std), train_windows.bounds)
     simulator = simulator.to(device)
@@ -260,8 +303,11 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
         if start >= settings.steps:
             log.info("the checkpoint is at step %d, beyond the %d asked for: nothing to train", start, settings.steps)
     else:
-        log.info("training from scratch: %d steps, %d parameters", settings.steps,
-                 sum(p.numel() for p in simulator.parameters()))
+        log.info(
+            "training from scratch: %d steps, %d parameters",
+            settings.steps,
+            sum(p.numel() for p in simulator.parameters()),
+        )
     began = time.perf_counter() - elapsed
     running = []
     for step in range(start, settings.steps):
@@ -273,8 +319,11 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
             graph, target = pushforward(simulator, graph, targets)
         else:
             target = targets[:, 0]
-        noise = random_walk_noise(graph.positions, settings.noise_std, noise_generator) if settings.noise_std else \
-            torch.zeros_like(graph.positions)
+        noise = (
+            random_walk_noise(graph.positions, settings.noise_std, noise_generator)
+            if settings.noise_std
+            else torch.zeros_like(graph.positions)
+        )
         loss = step_module(graph, target, noise)
         optimizer.zero_grad()
         loss.backward()
@@ -282,8 +331,12 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
         running.append(loss.item())
         done = step + 1
         if done % settings.log_every == 0 or done == settings.steps:
-            row: dict[str, Any] = {"step": done, "train_loss": float(np.mean(running)), "lr": learning_rate(settings, step),
-                                   "elapsed_s": time.perf_counter() - began}
+            row: dict[str, Any] = {
+                "step": done,
+                "train_loss": float(np.mean(running)),
+                "lr": learning_rate(settings, step),
+                "elapsed_s": time.perf_counter() - began,
+            }
             running = []
             if rank == 0 and (done % settings.validate_every == 0 or done == settings.steps):
                 row |= validate(simulator, valid_windows, batches, settings, device)
@@ -293,17 +346,38 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
                     _save(best_path, _model_state(simulator, settings, done, history + [row]))
             history.append(row)
             if rank == 0:
-                log.info("step %d/%d  loss %.4g  lr %.2e  %s  %.0f s", done, settings.steps, row["train_loss"], row["lr"],
-                         " ".join(f"{k} {v:.4g}" for k, v in row.items() if k.startswith("valid")), row["elapsed_s"])
+                log.info(
+                    "step %d/%d  loss %.4g  lr %.2e  %s  %.0f s",
+                    done,
+                    settings.steps,
+                    row["train_loss"],
+                    row["lr"],
+                    " ".join(f"{k} {v:.4g}" for k, v in row.items() if k.startswith("valid")),
+                    row["elapsed_s"],
+                )
         if done % settings.checkpoint_every == 0 or done == settings.steps:
             streams = _gather_streams(rng, noise_generator, distributed)
             if rank == 0:
-                _save(latest, {"model": simulator.state_dict(), "optimizer": optimizer.state_dict(), "step": done,
-                               "history": history, "elapsed_s": time.perf_counter() - began, "best": best,
-                               "streams": streams, "simulator": simulator.config(),
-                               "fingerprint": fingerprint(simulator, settings)})
-    summary = {"steps": settings.steps, "wall_s": time.perf_counter() - began, "resumed_from": start,
-               "selected_step": best["step"] if best else settings.steps}
+                _save(
+                    latest,
+                    {
+                        "model": simulator.state_dict(),
+                        "optimizer": optimizer.state_dict(),
+                        "step": done,
+                        "history": history,
+                        "elapsed_s": time.perf_counter() - began,
+                        "best": best,
+                        "streams": streams,
+                        "simulator": simulator.config(),
+                        "fingerprint": fingerprint(simulator, settings),
+                    },
+                )
+    summary = {
+        "steps": settings.steps,
+        "wall_s": time.perf_counter() - began,
+        "resumed_from": start,
+        "selected_step": best["step"] if best else settings.steps,
+    }
     if rank == 0:
         final = Path(final_model or out_dir / "gns.pt")
         if best is not None and best_path.exists():
@@ -318,8 +392,13 @@ def train(model: ModelSettings, settings: TrainSettings, train_path: str, valid_
 
 def _model_state(simulator: LearnedSimulator, settings: TrainSettings, step: int, history: list[dict]) -> dict:
     """What a model file holds: weights, how to rebuild the simulator, how it was trained."""
-    return {"model": simulator.state_dict(), "simulator": simulator.config(), "train_settings": asdict(settings),
-            "step": step, "history": history}
+    return {
+        "model": simulator.state_dict(),
+        "simulator": simulator.config(),
+        "train_settings": asdict(settings),
+        "step": step,
+        "history": history,
+    }
 
 
 def _gather_streams(rng: np.random.Generator, noise: torch.Generator, distributed: bool) -> list[dict]:
@@ -350,5 +429,3 @@ def init_distributed_from_environment() -> bool:
     if backend == "nccl":
         torch.cuda.set_device(int(os.environ.get("LOCAL_RANK", 0)))
     return True
-
-

@@ -12,11 +12,13 @@ solve); if that fails too, to the apex. This is exact for linear elasticity (Cla
 Andersen 2006, non-associated). A tension cutoff then caps every principal stress at T. Only the
 particles that yield are returned; the rest keep their trial stress.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
 import torch
+
 
 @dataclass
 class MohrCoulomb:
@@ -31,9 +33,11 @@ class MohrCoulomb:
     tension_cutoff: torch.Tensor
 
     @classmethod
-    def from_parameters(cls, youngs_modulus, poisson_ratio, friction_deg, dilation_deg, cohesion, tension_cutoff,
-                        like: torch.Tensor) -> "MohrCoulomb":
+    def from_parameters(
+        cls, youngs_modulus, poisson_ratio, friction_deg, dilation_deg, cohesion, tension_cutoff, like: torch.Tensor
+    ) -> MohrCoulomb:
         """Build from scalars or [P] arrays, as tensors shaped and typed like ``like`` [P]."""
+
         def tensor(value):
             return torch.as_tensor(value, dtype=like.dtype, device=like.device).expand_as(like).clone()
 
@@ -46,11 +50,11 @@ class MohrCoulomb:
             sin_phi=sin_phi,
             k=(1 + sin_phi) / (1 - sin_phi),
             m=(1 + sin_psi) / (1 - sin_psi),
-            sigma_c=2 * tensor(cohesion) * torch.sqrt(1 - sin_phi ** 2) / (1 - sin_phi),
+            sigma_c=2 * tensor(cohesion) * torch.sqrt(1 - sin_phi**2) / (1 - sin_phi),
             tension_cutoff=tensor(tension_cutoff),
         )
 
-    def subset(self, index: torch.Tensor) -> "MohrCoulomb":
+    def subset(self, index: torch.Tensor) -> MohrCoulomb:
         """The constants of the particles at ``index`` (or a boolean mask)."""
         return MohrCoulomb(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
 
@@ -60,7 +64,7 @@ class MohrCoulomb:
 
     @property
     def cohesion(self) -> torch.Tensor:
-        return self.sigma_c * (1 - self.sin_phi) / (2 * torch.sqrt(1 - self.sin_phi ** 2))
+        return self.sigma_c * (1 - self.sin_phi) / (2 * torch.sqrt(1 - self.sin_phi**2))
 
 
 def elastic_increment(dxx: torch.Tensor, dyy: torch.Tensor, dxy: torch.Tensor, material: MohrCoulomb) -> tuple:
@@ -109,14 +113,15 @@ def _principal(sxx, syy, szz, txy):
     """In-plane principal stresses s_a ≥ s_b, their angle, and the sorted triple with σzz."""
     centre = 0.5 * (sxx + syy)
     half_difference = 0.5 * (sxx - syy)
-    radius = torch.sqrt(half_difference ** 2 + txy ** 2)
+    radius = torch.sqrt(half_difference**2 + txy**2)
     s_a, s_b = centre + radius, centre - radius
     s1, s3 = torch.maximum(s_a, szz), torch.minimum(s_b, szz)
     return s_a, s_b, (s1, s_a + s_b + szz - s1 - s3, s3), (half_difference, txy, radius)
 
 
-def return_map(sxx: torch.Tensor, syy: torch.Tensor, szz: torch.Tensor, txy: torch.Tensor,
-               material: MohrCoulomb) -> tuple[tuple, torch.Tensor]:
+def return_map(
+    sxx: torch.Tensor, syy: torch.Tensor, szz: torch.Tensor, txy: torch.Tensor, material: MohrCoulomb
+) -> tuple[tuple, torch.Tensor]:
     """Admissible stresses (σxx, σyy, σzz, τxy) from elastic trial stresses, and the yielding mask."""
     _, _, (s1, _, s3), _ = _principal(sxx, syy, szz, txy)
     yielded = (material.k * s1 - s3 - material.sigma_c > 0) | (s1 > material.tension_cutoff)
@@ -127,7 +132,7 @@ def return_map(sxx: torch.Tensor, syy: torch.Tensor, szz: torch.Tensor, txy: tor
     t_xx, t_yy, t_zz, t_xy = sxx[index], syy[index], szz[index], txy[index]
     a, b, ordered, (half_difference, shear, radius) = _principal(t_xx, t_yy, t_zz, t_xy)
     plastic = sub.k * ordered[0] - ordered[2] - sub.sigma_c > 0
-    returned = _principal_return(*ordered, sub)
+    returned = _principal_return(ordered[0], ordered[1], ordered[2], sub)
     r1, r2, r3 = (torch.minimum(torch.where(plastic, r, o), sub.tension_cutoff) for r, o in zip(returned, ordered))
     z_top, z_bottom = t_zz >= a, t_zz < b  # where σzz sat in the order; it keeps that slot
     new_z = torch.where(z_top, r1, torch.where(z_bottom, r3, r2))
@@ -147,4 +152,4 @@ def yield_function(sxx, syy, szz, txy, material: MohrCoulomb) -> torch.Tensor:
     """f(σ) [P] of the main plane, scaled as σ1(1 + sin φ) − σ3(1 − sin φ) − 2c cos φ."""
     _, _, (s1, _, s3), _ = _principal(sxx, syy, szz, txy)
     sin_phi = material.sin_phi
-    return s1 * (1 + sin_phi) - s3 * (1 - sin_phi) - 2 * material.cohesion * torch.sqrt(1 - sin_phi ** 2)
+    return s1 * (1 + sin_phi) - s3 * (1 - sin_phi) - 2 * material.cohesion * torch.sqrt(1 - sin_phi**2)

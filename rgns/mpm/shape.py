@@ -15,6 +15,7 @@ along contiguous memory. Both live on a :class:`Region`, the part of the mesh th
   cells inside, which removes the volumetric locking of the bilinear cell (findings.md; Steffen,
   Kirby & Berzins 2008; Tielen et al. 2017 for B-spline MPM with open knot vectors).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -43,7 +44,7 @@ class Region:
     upper: tuple[int, int]
 
     @classmethod
-    def whole(cls, grid: RegularGrid) -> "Region":
+    def whole(cls, grid: RegularGrid) -> Region:
         return cls((0, 0), grid.cells)
 
     @property

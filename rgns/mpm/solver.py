@@ -12,6 +12,7 @@ the batch (the tensors are compacted) and its remaining frames repeat its last s
 trajectory keeps the same length and the others go on. With ``keep="ends"`` only the first
 and the last two frames are kept (what a Monte Carlo measurement reads); energies stay per frame.
 """
+
 from __future__ import annotations
 
 import logging
@@ -25,7 +26,7 @@ import torch
 
 from rgns.cbgeo.case import Case, CaseError
 from rgns.mpm.mohr_coulomb import MohrCoulomb
-from rgns.mpm.shape import BASES, Basis, RegularGrid, Region
+from rgns.mpm.shape import BASES, Basis, Region, RegularGrid
 from rgns.mpm.step import Boundary, Particles, substep
 from rgns.trajectories import frame_count, kept_frames
 
@@ -49,7 +50,7 @@ class EngineSettings:
     device: str = "cpu"
 
     @classmethod
-    def from_config(cls, section: dict[str, Any]) -> "EngineSettings":
+    def from_config(cls, section: dict[str, Any]) -> EngineSettings:
         return cls(**{key: section[key] for key in cls.__dataclass_fields__ if key in section})
 
 
@@ -127,7 +128,7 @@ def region_of(grid: RegularGrid, walls: Walls) -> Region:
             lower[axis] = cell
         else:
             upper[axis] = cell
-    return Region(tuple(lower), tuple(upper))
+    return Region((lower[0], lower[1]), (upper[0], upper[1]))
 
 
 def boundary_of(walls: Walls, basis: Basis, device: torch.device) -> Boundary:
@@ -143,8 +144,12 @@ def boundary_of(walls: Walls, basis: Basis, device: torch.device) -> Boundary:
     if walls.floor is not None:
         floor = coordinate[1] <= walls.floor[0] + tolerance
         friction[floor] = walls.floor[1]
-    return Boundary(torch.as_tensor(fixed[0], device=device), torch.as_tensor(fixed[1], device=device),
-                    torch.as_tensor(floor, device=device), torch.as_tensor(friction, device=device))
+    return Boundary(
+        torch.as_tensor(fixed[0], device=device),
+        torch.as_tensor(fixed[1], device=device),
+        torch.as_tensor(floor, device=device),
+        torch.as_tensor(friction, device=device),
+    )
 
 
 def basis_of(case: Case, shape_function: str, device: torch.device) -> tuple[Basis, Boundary]:
@@ -165,29 +170,46 @@ def particles_of(cases: list[Case], settings: EngineSettings, device: torch.devi
     def cat(arrays: list[np.ndarray]) -> torch.Tensor:
         return torch.as_tensor(np.concatenate(arrays), dtype=dtype, device=device)
 
-    per_material: dict[str, list[np.ndarray]] = {k: [] for k in
-                                                 ("youngs_modulus", "poisson_ratio", "dilation", "cohesion", "tension_cutoff")}
+    per_material: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("youngs_modulus", "poisson_ratio", "dilation", "cohesion", "tension_cutoff")
+    }
     friction, stresses = [], []
     for case in cases:
         materials = case.materials
         for key, values in per_material.items():
             values.append(np.array([materials[int(k)][key] for k in case.material_id], dtype=float))
         friction.append(case.friction_deg if settings.friction_source == "exact" else case.binned_friction_deg)
-        stresses.append(case.stresses[:, [0, 1, 2, 3]] if case.stresses is not None else np.zeros((len(case.positions), 4)))
+        stresses.append(
+            case.stresses[:, [0, 1, 2, 3]] if case.stresses is not None else np.zeros((len(case.positions), 4))
+        )
     volume = cat([case.volumes for case in cases])
     material = MohrCoulomb.from_parameters(
-        cat(per_material["youngs_modulus"]), cat(per_material["poisson_ratio"]), cat(friction),
-        cat(per_material["dilation"]), cat(per_material["cohesion"]), cat(per_material["tension_cutoff"]), volume,
+        cat(per_material["youngs_modulus"]),
+        cat(per_material["poisson_ratio"]),
+        cat(friction),
+        cat(per_material["dilation"]),
+        cat(per_material["cohesion"]),
+        cat(per_material["tension_cutoff"]),
+        volume,
     )
-    batch = torch.cat([torch.full((len(case.positions),), b, dtype=torch.long, device=device) for b, case in enumerate(cases)])
+    batch = torch.cat(
+        [torch.full((len(case.positions),), b, dtype=torch.long, device=device) for b, case in enumerate(cases)]
+    )
     position = cat([case.positions for case in cases])
     stress = cat(stresses)
     return Particles(
-        x=position[:, 0].contiguous(), y=position[:, 1].contiguous(),
-        vx=torch.zeros_like(volume), vy=torch.zeros_like(volume),
-        mass=volume * cat([case.density_kg_m3 for case in cases]), volume=volume,
-        sxx=stress[:, 0].contiguous(), syy=stress[:, 1].contiguous(), szz=stress[:, 2].contiguous(),
-        txy=stress[:, 3].contiguous(), batch=batch, material=material,
+        x=position[:, 0].contiguous(),
+        y=position[:, 1].contiguous(),
+        vx=torch.zeros_like(volume),
+        vy=torch.zeros_like(volume),
+        mass=volume * cat([case.density_kg_m3 for case in cases]),
+        volume=volume,
+        sxx=stress[:, 0].contiguous(),
+        syy=stress[:, 1].contiguous(),
+        szz=stress[:, 2].contiguous(),
+        txy=stress[:, 3].contiguous(),
+        batch=batch,
+        material=material,
     )
 
 
@@ -197,20 +219,30 @@ def energies(particles: Particles, gravity: float, batches: int) -> torch.Tensor
     sxx, syy, szz, txy = particles.sxx, particles.syy, particles.szz, particles.txy
     e = m.shear_modulus * (3 * m.lame_lambda + 2 * m.shear_modulus) / (m.lame_lambda + m.shear_modulus)
     nu = m.lame_lambda / (2 * (m.lame_lambda + m.shear_modulus))
-    density = (sxx ** 2 + syy ** 2 + szz ** 2 - 2 * nu * (sxx * syy + syy * szz + szz * sxx)) / (2 * e) \
-        + txy ** 2 / (2 * m.shear_modulus)
-    per_particle = torch.stack([
-        0.5 * particles.mass * (particles.vx ** 2 + particles.vy ** 2),
-        particles.mass * gravity * particles.y,
-        density * particles.volume,
-    ], dim=1)
+    density = (sxx**2 + syy**2 + szz**2 - 2 * nu * (sxx * syy + syy * szz + szz * sxx)) / (2 * e) + txy**2 / (
+        2 * m.shear_modulus
+    )
+    per_particle = torch.stack(
+        [
+            0.5 * particles.mass * (particles.vx**2 + particles.vy**2),
+            particles.mass * gravity * particles.y,
+            density * particles.volume,
+        ],
+        dim=1,
+    )
     return torch.zeros((batches, 3), dtype=per_particle.dtype, device=per_particle.device).index_add_(
-        0, particles.batch, per_particle)
+        0, particles.batch, per_particle
+    )
 
 
-def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | None = None,
-              frame_interval_s: float | None = None,
-              initial_velocity: list[np.ndarray] | None = None, keep: str = "all") -> list[RunResult]:
+def run_batch(
+    cases: list[Case],
+    settings: EngineSettings,
+    duration_s: float | None = None,
+    frame_interval_s: float | None = None,
+    initial_velocity: list[np.ndarray] | None = None,
+    keep: str = "all",
+) -> list[RunResult]:
     """Simulate every case (same grid and constraints) to ``duration_s``; one result per case.
 
     ``duration_s`` and ``frame_interval_s`` default to the case's; ``initial_velocity`` gives
@@ -241,7 +273,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     counts = [len(case.positions) for case in cases]
     live = list(range(len(cases)))  # case index of each batch slot
     frames = [[case.positions.astype(np.float32)] for case in cases]
-    history = [[] for _ in cases]
+    history: list[list[np.ndarray]] = [[] for _ in cases]
     results: list[RunResult | None] = [None] * len(cases)
     last_stress: list[np.ndarray | None] = [None] * len(cases)
     initial = energies(particles, g, len(cases))
@@ -254,7 +286,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
     wave_speed = torch.sqrt(particles.material.p_wave_modulus * particles.volume / particles.mass).max().item()
     steps = 0
     for frame in range(1, n_frames):
-        speed = torch.sqrt(particles.vx ** 2 + particles.vy ** 2).max().item()
+        speed = torch.sqrt(particles.vx**2 + particles.vy**2).max().item()
         dt_cfl = settings.cfl * grid.h / (wave_speed + speed)
         substeps = max(1, math.ceil(frame_interval_s / min(dt_cfl, settings.dt_max_s) - 1e-9))
         dt = frame_interval_s / substeps
@@ -268,14 +300,22 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
         steps += substeps
         now = frame * frame_interval_s
         energy = energies(particles, g, len(live))
-        state_finite = torch.isfinite(particles.x) & torch.isfinite(particles.y) & torch.isfinite(particles.vx) \
+        state_finite = (
+            torch.isfinite(particles.x)
+            & torch.isfinite(particles.y)
+            & torch.isfinite(particles.vx)
             & torch.isfinite(particles.vy)
-        finite = torch.zeros(len(live), dtype=torch.long, device=device).index_add_(0, particles.batch, (~state_finite).long())
+        )
+        finite = torch.zeros(len(live), dtype=torch.long, device=device).index_add_(
+            0, particles.batch, (~state_finite).long()
+        )
         positions = torch.stack([particles.x, particles.y], 1).cpu().numpy().astype(np.float32)
         live_counts = [counts[c] for c in live]
         split = np.split(positions, np.cumsum(live_counts)[:-1])
-        stress_split = np.split(torch.stack([particles.sxx, particles.syy, particles.szz, particles.txy], 1).cpu().numpy(),
-                                np.cumsum(live_counts)[:-1])
+        stress_split = np.split(
+            torch.stack([particles.sxx, particles.syy, particles.szz, particles.txy], 1).cpu().numpy(),
+            np.cumsum(live_counts)[:-1],
+        )
         going_on = torch.ones(len(live), dtype=torch.bool, device=device)
         energy_np = energy.cpu().numpy()
         for slot, case_index in enumerate(live):
@@ -287,8 +327,10 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
             if finite[slot] > 0 or not np.isfinite(energy_np[slot]).all():
                 reason = f"non-finite particle state at t = {now:.3f} s"
             elif outside_region[slot] > 0:
-                reason = (f"{int(outside_region[slot])} particle step(s) past a wall, the floor or the mesh edge "
-                          f"by t = {now:.3f} s")
+                reason = (
+                    f"{int(outside_region[slot])} particle step(s) past a wall, the floor or the mesh edge "
+                    f"by t = {now:.3f} s"
+                )
             elif energy_np[slot].sum() > float(initial_total[case_index]) * (1 + settings.energy_growth_limit):
                 growth = energy_np[slot].sum() / float(initial_total[case_index]) - 1
                 reason = f"total energy grew {growth:.1%} by t = {now:.3f} s (limit {settings.energy_growth_limit:.0%})"
@@ -297,7 +339,7 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
                 results[case_index] = RunResult(np.empty(0), np.empty(0), np.empty(0), status=f"diverged: {reason}")
                 going_on[slot] = False
                 continue
-            recent[case_index] = (recent[case_index] + [split[slot]])[-(window + 1):]
+            recent[case_index] = (recent[case_index] + [split[slot]])[-(window + 1) :]
             moved = np.sqrt(((split[slot] - recent[case_index][0]) ** 2).sum(1).max())
             at_rest = len(recent[case_index]) > window and moved < settings.early_stop_displacement_m
             quiet[case_index] = quiet[case_index] + frame_interval_s if at_rest else 0.0
@@ -310,8 +352,14 @@ def run_batch(cases: list[Case], settings: EngineSettings, duration_s: float | N
             particles = particles.subset(going_on[particles.batch], new_batch)
             live = [c for slot, c in enumerate(live) if going_on[slot]]
         if frame % 40 == 0 or not live:
-            log.info("t = %.2f s: %d of %d realizations running, dt = %.2e s (%d steps so far)",
-                     now, len(live), len(cases), dt, steps)
+            log.info(
+                "t = %.2f s: %d of %d realizations running, dt = %.2e s (%d steps so far)",
+                now,
+                len(live),
+                len(cases),
+                dt,
+                steps,
+            )
         if not live:
             break
     wall = time.perf_counter() - start_wall

@@ -13,6 +13,7 @@ CB-Geo's USF scheme:
 4. ``g2p``: FLIP velocity update (optionally blended with a little PIC), positions moved with
    the new nodal velocities.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
@@ -34,7 +35,7 @@ class Boundary:
     floor: torch.Tensor  # bool: node carries the floor friction (normal +y, pushed when a_y < 0)
     friction: torch.Tensor  # Coulomb μ of the floor (0 where none)
 
-    def repeat(self, batches: int) -> "Boundary":
+    def repeat(self, batches: int) -> Boundary:
         """The constraints of every node copy of a batch, [B·Nn]."""
         return Boundary(*(getattr(self, f.name).repeat(batches) for f in fields(self)))
 
@@ -56,7 +57,7 @@ class Particles:
     batch: torch.Tensor  # realization of each particle, 0..B-1
     material: MohrCoulomb
 
-    def subset(self, mask: torch.Tensor, new_batch: torch.Tensor) -> "Particles":
+    def subset(self, mask: torch.Tensor, new_batch: torch.Tensor) -> Particles:
         """The particles under ``mask``, with batch ids mapped through ``new_batch``."""
         values = {f.name: getattr(self, f.name)[mask] for f in fields(self) if f.name not in ("batch", "material")}
         return Particles(**values, batch=new_batch[self.batch[mask]], material=self.material.subset(mask))
@@ -75,7 +76,9 @@ class Nodal:
 
 def _scatter(flat: torch.Tensor, values: torch.Tensor, size: int) -> torch.Tensor:
     """Sum per-slot values [K, P] into nodes [size]."""
-    return torch.zeros(size, dtype=values.dtype, device=values.device).scatter_add_(0, flat.reshape(-1), values.reshape(-1))
+    return torch.zeros(size, dtype=values.dtype, device=values.device).scatter_add_(
+        0, flat.reshape(-1), values.reshape(-1)
+    )
 
 
 def _gather(nodal: torch.Tensor, flat: torch.Tensor) -> torch.Tensor:
@@ -102,14 +105,20 @@ def stress_update(particles: Particles, weights: Weights, nodal: Nodal, dt: floa
     dyy = dt * (vy * weights.grad_y).sum(0)
     dxy = dt * ((vx * weights.grad_y).sum(0) + (vy * weights.grad_x).sum(0))
     increment = elastic_increment(dxx, dyy, dxy, particles.material)
-    trial = (particles.sxx + increment[0], particles.syy + increment[1], particles.szz + increment[2],
-             particles.txy + increment[3])
+    trial = (
+        particles.sxx + increment[0],
+        particles.syy + increment[1],
+        particles.szz + increment[2],
+        particles.txy + increment[3],
+    )
     (particles.sxx, particles.syy, particles.szz, particles.txy), yielded = return_map(*trial, particles.material)
     particles.volume = particles.volume * (1.0 + dxx + dyy)
     return yielded
 
 
-def _floor_friction(ax: torch.Tensor, ay: torch.Tensor, vx: torch.Tensor, boundary: Boundary, dt: float) -> torch.Tensor:
+def _floor_friction(
+    ax: torch.Tensor, ay: torch.Tensor, vx: torch.Tensor, boundary: Boundary, dt: float
+) -> torch.Tensor:
     """CB-Geo's Coulomb friction on floor nodes pushed into the floor: the new x acceleration."""
     pushing = boundary.floor & (ay < 0)
     limit = boundary.friction * ay.abs()
@@ -119,8 +128,15 @@ def _floor_friction(ax: torch.Tensor, ay: torch.Tensor, vx: torch.Tensor, bounda
     return torch.where(pushing, torch.where(vx != 0, kinetic, static), ax)
 
 
-def grid_update(particles: Particles, weights: Weights, nodal: Nodal, gravity: tuple[float, float],
-                boundary: Boundary, dt: float, damping: float = 0.0) -> tuple[torch.Tensor, ...]:
+def grid_update(
+    particles: Particles,
+    weights: Weights,
+    nodal: Nodal,
+    gravity: tuple[float, float],
+    boundary: Boundary,
+    dt: float,
+    damping: float = 0.0,
+) -> tuple[torch.Tensor, ...]:
     """Nodal acceleration and new velocity (x and y) from internal and gravity forces, friction, constraints.
 
     ``damping`` is CB-Geo's Cundall factor α: the unbalanced force f becomes f − α·|f|·sign(v).
@@ -133,12 +149,17 @@ def grid_update(particles: Particles, weights: Weights, nodal: Nodal, gravity: t
     inverse = torch.where(nodal.active, 1.0 / nodal.mass.clamp_min(MASS_TOLERANCE), 0.0)
     force_x, force_y = _scatter(nodal.flat, fx, size), _scatter(nodal.flat, fy, size)
     if damping:
-        magnitude = damping * torch.sqrt(force_x ** 2 + force_y ** 2)
+        magnitude = damping * torch.sqrt(force_x**2 + force_y**2)
         force_x, force_y = force_x - magnitude * torch.sign(nodal.vx), force_y - magnitude * torch.sign(nodal.vy)
     ax, ay = force_x * inverse, force_y * inverse
     ax = _floor_friction(ax, ay, nodal.vx, boundary, dt).masked_fill(boundary.fixed_x, 0.0)
     ay = ay.masked_fill(boundary.fixed_y, 0.0)
-    return ax, ay, (nodal.vx + dt * ax).masked_fill(boundary.fixed_x, 0.0), (nodal.vy + dt * ay).masked_fill(boundary.fixed_y, 0.0)
+    return (
+        ax,
+        ay,
+        (nodal.vx + dt * ax).masked_fill(boundary.fixed_x, 0.0),
+        (nodal.vy + dt * ay).masked_fill(boundary.fixed_y, 0.0),
+    )
 
 
 def g2p(particles: Particles, weights: Weights, nodal: Nodal, nodal_update: tuple, dt: float, pic_blend: float) -> None:
@@ -154,8 +175,17 @@ def g2p(particles: Particles, weights: Weights, nodal: Nodal, nodal_update: tupl
     particles.x, particles.y = particles.x + dt * pic_x, particles.y + dt * pic_y
 
 
-def substep(particles: Particles, weights: Weights, n_nodes: int, boundary: Boundary,
-            gravity: tuple[float, float], batches: int, dt: float, pic_blend: float, damping: float = 0.0) -> torch.Tensor:
+def substep(
+    particles: Particles,
+    weights: Weights,
+    n_nodes: int,
+    boundary: Boundary,
+    gravity: tuple[float, float],
+    batches: int,
+    dt: float,
+    pic_blend: float,
+    damping: float = 0.0,
+) -> torch.Tensor:
     """Advance every realization by ``dt`` (``boundary`` already repeated per batch); returns yielding."""
     nodal = p2g(particles, weights, n_nodes, boundary, batches)
     yielded = stress_update(particles, weights, nodal, dt)

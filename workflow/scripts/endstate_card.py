@@ -1,4 +1,5 @@
 """Rule endstate_card: the trained end-state surrogate's card (rgns/models/endstate_card.* when shipped)."""
+
 import json
 from pathlib import Path
 
@@ -11,6 +12,7 @@ log = log_to_file(snakemake.log[0])
 history = pd.read_csv(snakemake.input.history).to_dict("records")
 card = make_card(dict(snakemake.params.config), list(snakemake.input.data), history, list(snakemake.params.cases))
 Path(snakemake.output.card).write_text(json.dumps(card, indent=2) + "\n")
-Path(snakemake.output.markdown).write_text(render_card(card, Path(snakemake.input.validation).read_text(),
-                                                      snakemake.params.title))
+Path(snakemake.output.markdown).write_text(
+    render_card(card, Path(snakemake.input.validation).read_text(), snakemake.params.title)
+)
 log.info("end-state card: %d steps", card["steps"])

@@ -1,4 +1,5 @@
 """Rule geometry: draw one realization's polygon and particles, write its scene file."""
+
 from rgns.geometry import build_scene, write_scene
 from rgns.logsetup import log_to_file
 
@@ -17,5 +18,10 @@ scene = build_scene(
 write_scene(snakemake.output[0], scene)
 log.info(
     "%s %s: family %s, %d particles, area %.2f m2, %d draw(s)",
-    scene.set_name, snakemake.wildcards.index, scene.family, len(scene.positions), scene.area_m2, scene.draws,
+    scene.set_name,
+    snakemake.wildcards.index,
+    scene.family,
+    len(scene.positions),
+    scene.area_m2,
+    scene.draws,
 )

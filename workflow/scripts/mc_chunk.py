@@ -2,13 +2,14 @@
 
 With a learned simulator (the GNS or the end-state surrogate), the validation gate decides: a case
 it failed runs MPM (on_failure: fallback) or stops here with the failures named (on_failure: stop)."""
+
 import sys
 from dataclasses import replace
 
 import torch
 
-from rgns.gate import SURROGATE_NAMES, GateError, simulator_for
 from rgns.endstate.model import load_model
+from rgns.gate import SURROGATE_NAMES, GateError, simulator_for
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
 from rgns.montecarlo import SURROGATES, CaseInputs, RunSettings, run_realizations
@@ -28,13 +29,24 @@ if snakemake.input.gate:
         print(f"rgns: {error}", file=sys.__stderr__, flush=True)
         sys.exit(1)
     if settings.simulator not in SURROGATES:
-        log.warning("%s: the %s failed the validation gate: these realizations are run by MPM", inputs.case,
-                    SURROGATE_NAMES[surrogate])
-loaders = {"gns": lambda path: load_simulator(path, settings.device).eval(),
-           "endstate": lambda path: load_model(path, settings.device)}
+        log.warning(
+            "%s: the %s failed the validation gate: these realizations are run by MPM",
+            inputs.case,
+            SURROGATE_NAMES[surrogate],
+        )
+loaders = {
+    "gns": lambda path: load_simulator(path, settings.device).eval(),
+    "endstate": lambda path: load_model(path, settings.device),
+}
 use_model = snakemake.input.model and settings.simulator in SURROGATES
 simulator = loaders[settings.simulator](snakemake.input.model[0]) if use_model else None
 table = run_realizations(inputs, list(snakemake.params.indices), settings, simulator)
 write_csv(table, snakemake.output[0])
-log.info("%s: %d realizations by %s, %d screened as stable, %d not ok", inputs.case, len(table), settings.simulator,
-         int((table["status"] == "screened").sum()), int((~table["status"].isin(FINISHED)).sum()))
+log.info(
+    "%s: %d realizations by %s, %d screened as stable, %d not ok",
+    inputs.case,
+    len(table),
+    settings.simulator,
+    int((table["status"] == "screened").sum()),
+    int((~table["status"].isin(FINISHED)).sum()),
+)

@@ -1,4 +1,5 @@
 """Rule mpm_input: write one realization's CB-Geo case directory."""
+
 from rgns.cbgeo.writer import write_case
 from rgns.fields import read_field
 from rgns.geometry import read_scene
@@ -8,5 +9,10 @@ log = log_to_file(snakemake.log[0])
 scene = read_scene(snakemake.input.scene)
 field = read_field(snakemake.input.field)
 write_case(snakemake.output[0], scene, field.friction_deg, snakemake.params[0])
-log.info("%s %s: case with %d particles written to %s", scene.set_name, snakemake.wildcards.index,
-         len(scene.positions), snakemake.output[0])
+log.info(
+    "%s %s: case with %d particles written to %s",
+    scene.set_name,
+    snakemake.wildcards.index,
+    len(scene.positions),
+    snakemake.output[0],
+)

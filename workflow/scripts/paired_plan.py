@@ -1,5 +1,6 @@
 """Checkpoint paired_plan: how many realizations of a case to pair for the target half-width
 (rgns.multifidelity_outputs.plan_pairs)."""
+
 import json
 
 from rgns.logsetup import log_to_file
@@ -13,7 +14,16 @@ pilot = collect_whole_chunks(snakemake.input.pilot, settings["chunk_size"], sett
 plan = plan_pairs(read_csv(snakemake.input.realizations), pilot, settings)
 with open(snakemake.output[0], "w") as out:
     json.dump(plan, out, indent=1)
-log.info("%s: %d pilot pairs, std of R %.2f m, correlation %.3f: %d paired realizations (%d chunks) for a "
-         "half-width of %.3g m, predicted %.3g m%s", snakemake.wildcards.case, plan["pilot"], plan["std_m"],
-         plan["correlation"], plan["n_paired"], plan["chunks"], plan["target_half_width_m"],
-         plan["predicted_half_width_m"], "" if plan["reached"] else f" (not reached within the cap {plan['cap']})")
+log.info(
+    "%s: %d pilot pairs, std of R %.2f m, correlation %.3f: %d paired realizations (%d chunks) for a "
+    "half-width of %.3g m, predicted %.3g m%s",
+    snakemake.wildcards.case,
+    plan["pilot"],
+    plan["std_m"],
+    plan["correlation"],
+    plan["n_paired"],
+    plan["chunks"],
+    plan["target_half_width_m"],
+    plan["predicted_half_width_m"],
+    "" if plan["reached"] else f" (not reached within the cap {plan['cap']})",
+)

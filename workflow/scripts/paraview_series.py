@@ -1,4 +1,5 @@
 """Rule paraview_series: one realization as VTU frames + a .pvd index for ParaView."""
+
 from pathlib import Path
 
 from rgns.engines import trajectory_name

@@ -1,4 +1,5 @@
 """Rule random_field: draw one realization's friction field onto its scene's particles."""
+
 from rgns.fields import FieldGrid, friction_field, write_field
 from rgns.geometry import read_scene
 from rgns.logsetup import log_to_file
@@ -23,6 +24,12 @@ field = friction_field(
 write_field(snakemake.output[0], field)
 log.info(
     "%s %s: %s field on %s grid, mean %.2f deg, particles %.2f-%.2f deg, %.2f %% clipped",
-    scene.set_name, snakemake.wildcards.index, field.method, grid.shape, field.mean_deg,
-    field.friction_deg.min(), field.friction_deg.max(), 100 * field.clipped_fraction,
+    scene.set_name,
+    snakemake.wildcards.index,
+    field.method,
+    grid.shape,
+    field.mean_deg,
+    field.friction_deg.min(),
+    field.friction_deg.max(),
+    100 * field.clipped_fraction,
 )

@@ -1,4 +1,5 @@
 """Rule report: the HTML page collecting every figure and table of the run."""
+
 import json
 from pathlib import Path
 

@@ -1,10 +1,14 @@
 """Rule scene_preview: picture the first realizations of a set."""
+
 from rgns.fields import read_field
 from rgns.geometry import read_scene
 from rgns.logsetup import log_to_file
 from rgns.plots import plot_scenes
 
 log = log_to_file(snakemake.log[0])
-plot_scenes([read_scene(p) for p in snakemake.input.scenes], [read_field(p) for p in snakemake.input.fields],
-            snakemake.output[0])
+plot_scenes(
+    [read_scene(p) for p in snakemake.input.scenes],
+    [read_field(p) for p in snakemake.input.fields],
+    snakemake.output[0],
+)
 log.info("wrote %s", snakemake.output[0])

@@ -1,8 +1,8 @@
 """Rule shipped_endstate: the pretrained end-state surrogate of the package, checked to serve this config."""
-import shutil
-from pathlib import Path
 
 import json
+import shutil
+from pathlib import Path
 
 from rgns.endstate.card import check_serves
 from rgns.logsetup import log_to_file

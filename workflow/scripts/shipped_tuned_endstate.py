@@ -1,4 +1,5 @@
 """Rule shipped_tuned_endstate: the tuned end-state surrogate of the package, checked to serve this config."""
+
 import shutil
 from pathlib import Path
 
@@ -11,5 +12,9 @@ card = read_card(Path(snakemake.input.card).parent, Path(snakemake.input.card).n
 check_tuned_serves(card, snakemake.params.config)
 shutil.copyfile(snakemake.input.model, snakemake.output.model)
 shutil.copyfile(snakemake.input.card, snakemake.output.card)
-log.info("shipped tuned end-state surrogate: %d steps on %s, data %s", card["steps"], ", ".join(card["cases"]),
-         card["data_fingerprint"])
+log.info(
+    "shipped tuned end-state surrogate: %d steps on %s, data %s",
+    card["steps"],
+    ", ".join(card["cases"]),
+    card["data_fingerprint"],
+)

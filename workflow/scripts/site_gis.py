@@ -1,4 +1,5 @@
 """Rule site_gis: a site's zones as GeoJSON, exceedance per chainage as CSV, and its map view."""
+
 import json
 from pathlib import Path
 
@@ -10,11 +11,13 @@ from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])
 settings = snakemake.params[0]
-table = finished(read_csv(snakemake.input.realizations,
-                          ["index", "status", "toe_x_m", "crest_x_m", "rear_x_m", "front_x_m"]))
+table = finished(
+    read_csv(snakemake.input.realizations, ["index", "status", "toe_x_m", "crest_x_m", "rear_x_m", "front_x_m"])
+)
 section = read_section(settings["section"], settings["cell_size_m"])
-features = write_site_gis(table, json.loads(Path(snakemake.input.zoning).read_text()), section, settings,
-                          dict(snakemake.output.items()))
+features = write_site_gis(
+    table, json.loads(Path(snakemake.input.zoning).read_text()), section, settings, dict(snakemake.output.items())
+)
 for feature in features["features"]:
     p = feature["properties"]
     log.info("%s: chainage %.2f to %.2f m", p["level"], p["chainage_from_m"], p["chainage_to_m"])

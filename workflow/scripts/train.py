@@ -1,4 +1,5 @@
 """Rule train: train (or resume) the GNS, then evaluate it on the validation set."""
+
 import json
 from pathlib import Path
 
@@ -10,16 +11,31 @@ from rgns.plots import plot_learning_curve
 
 log = log_to_file(snakemake.log[0])
 params = snakemake.params
-model, settings = settings_from_config(params.gns, params.cell_size_m,
-                                       warmup_frame_count(params.warmup_s, params.frame_interval_s))
+model, settings = settings_from_config(
+    params.gns, params.cell_size_m, warmup_frame_count(params.warmup_s, params.frame_interval_s)
+)
 out_dir = Path(snakemake.output.model).parent
-summary = train(model, settings, snakemake.input.train, snakemake.input.valid, out_dir, snakemake.output.model,
-                init_model=snakemake.input.init[0] if snakemake.input.init else None)
+summary = train(
+    model,
+    settings,
+    snakemake.input.train,
+    snakemake.input.valid,
+    out_dir,
+    snakemake.output.model,
+    init_model=snakemake.input.init[0] if snakemake.input.init else None,
+)
 plot_learning_curve(snakemake.output.history, snakemake.output.curve)
 handover = RolloutSettings(warmup_frames=settings.selection_warmup_frames)
-evaluation = evaluate(load_simulator(snakemake.output.model, settings.device), snakemake.input.valid,
-                      settings=handover) | summary
+evaluation = (
+    evaluate(load_simulator(snakemake.output.model, settings.device), snakemake.input.valid, settings=handover)
+    | summary
+)
 Path(snakemake.output.evaluation).write_text(json.dumps(evaluation, indent=2) + "\n")
-log.info("trained %d steps in %.0f s, kept step %d; validation one-step error %.4g m, rollout mean error %.4g m",
-         summary["steps"], summary["wall_s"], summary["selected_step"], evaluation["one_step_error_m"],
-         evaluation["rollout_mean_error_m"])
+log.info(
+    "trained %d steps in %.0f s, kept step %d; validation one-step error %.4g m, rollout mean error %.4g m",
+    summary["steps"],
+    summary["wall_s"],
+    summary["selected_step"],
+    evaluation["one_step_error_m"],
+    evaluation["rollout_mean_error_m"],
+)

@@ -1,5 +1,6 @@
 """Rule validate: agreement of the learned simulator (GNS or end-state surrogate) with MPM over every
 test case (Table 3, Figs. 8-12)."""
+
 import json
 from pathlib import Path
 
@@ -14,8 +15,10 @@ from rgns.validation_plots import plot_energy_evolution, plot_histograms, plot_p
 log = log_to_file(snakemake.log[0])
 settings = snakemake.params.validation
 cases = list(snakemake.params.cases)
-pairs = {case: read_csv(path, ["index", "gns_status", "final_position_mse_m2"])
-         for case, path in zip(cases, snakemake.input.pairs)}
+pairs = {
+    case: read_csv(path, ["index", "gns_status", "final_position_mse_m2"])
+    for case, path in zip(cases, snakemake.input.pairs)
+}
 agreements, summaries = {}, []
 for case in cases:
     agreements[case], summary = case_agreement(pairs[case], case, settings["bootstrap"], settings["confidence"])
