@@ -176,9 +176,17 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
         )
     else:
         best = r["estimate"]
-    return line + (
-        f"; the uncorrected hazard below is biased by about {own - best:+.2f} m" if excluded else ""
-    ) + ".", excluded
+    line += f"; the uncorrected hazard below is biased by about {own - best:+.2f} m" if excluded else ""
+    if "converged" in record:
+        stays = [f"mean {key}" for key, m in record["converged"]["means"].items() if m["mesh_step"] is None]
+        line += (
+            f". Not carried to the converged mesh (no convergence order measured, montecarlo.fidelity.mesh_order): "
+            f"{', '.join(stays)}; their {record['high_cell_size_m']:g} m values may still be short of the converged "
+            "answer (benchmarks/results/mesh_levels.md)"
+            if stays
+            else ""
+        )
+    return line + ".", excluded
 
 
 def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> None:

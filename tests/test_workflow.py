@@ -208,6 +208,8 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     runout = extrapolated["means"]["runout_m"]
     assert runout["estimate"] == pytest.approx(runout["accurate"] + runout["mesh_step"])
     assert "carried to the converged mesh" in page and "multi-fidelity correction and mesh extrapolation" in page
+    # a quantity without a measured order stays at 0.5 m, and the top of the page says so
+    assert "Not carried to the converged mesh (no convergence order measured" in page.split("Configuration</h2>")[0]
 
 
 def test_a_target_half_width_pairs_the_chunks_the_checkpoint_chose_and_keeps_the_pilot(built, tmp_path):
