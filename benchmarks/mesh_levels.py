@@ -165,7 +165,9 @@ def finest_check(case: str, cells: list[float], finest: float = 0.125) -> list[s
         means = values[key].mean(axis=1)
         _, predicted = richardson(means[:3])
         order_fine, _ = richardson(means[1:])
-        lines.append(f"| {key} | {' / '.join(f'{m:.2f}' for m in means)} | {predicted:.2f} | {order_fine:.2f} |")
+        steps = np.diff(means[1:])
+        fine = f"{order_fine:.2f}" if np.sign(steps[0]) == np.sign(steps[1]) else "none (the differences change sign)"
+        lines.append(f"| {key} | {' / '.join(f'{m:.2f}' for m in means)} | {predicted:.2f} | {fine} |")
     return lines
 
 
