@@ -187,7 +187,8 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
     lines = [
         "# The embedded MPM's mesh error on the Monte Carlo's realizations",
         "",
-        "`python benchmarks/mesh_levels.py --run --cases case1 case3` then `python benchmarks/mesh_levels.py` "
+        "`python benchmarks/mesh_levels.py --run --cases case1 case3` (and `--cells 0.125`, `--first`, `--realizations` "
+        "to extend), then `python benchmarks/mesh_levels.py --against <run>/results/report/case1/multifidelity.json` "
         "(method: its docstring). B-spline shape functions, the default config's engine settings and "
         "run length; 95 % percentile bootstrap intervals over the realizations. Times: wall seconds per "
         "realization on one thread of a 2-core machine with other work running.",

@@ -181,7 +181,7 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
         stays = [f"mean {key}" for key, m in record["converged"]["means"].items() if m["mesh_step"] is None]
         line += (
             f". Not carried to the converged mesh (no convergence order measured, montecarlo.fidelity.mesh_order): "
-            f"{', '.join(stays)}; their {record['high_cell_size_m']:g} m values may still be short of the converged "
+            f"{', '.join(stays)}; their {record['high_cell_size_m']:g} m values may still differ from the converged "
             "answer (benchmarks/results/mesh_levels.md)"
             if stays
             else ""
