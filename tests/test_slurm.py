@@ -68,6 +68,7 @@ def test_the_tiny_workflow_runs_to_the_report_through_slurm_with_the_profile(clu
         "group_prepare_geometry_mpm_input_random_field_scene_preview",
         "rule_gns_export",
         "rule_mc_chunk",
+        "rule_mc_coarse_chunk",
         "rule_mc_mean_field",
         "rule_mc_paired_chunk",
         "rule_mpm_run",
