@@ -209,6 +209,14 @@ def _validation_source(card: dict[str, Any]) -> list[str]:
     ]
 
 
+def _hardware(config: dict[str, Any]) -> str:
+    """Where the training and its data's MPM runs ran."""
+    device = config["endstate"].get("device", "cpu")
+    if device == "cpu":
+        return f"{config['endstate']['threads']} CPU threads"
+    return f"training on {device}, the data's MPM batches on {config['mpm']['embedded']['device']}"
+
+
 def render_card(
     card: dict[str, Any],
     validation_markdown: str,
@@ -232,8 +240,8 @@ def render_card(
         f"* data: {card['realizations_per_case']} realizations per {per} ({len(card['cases'])} sets) drawn from seed "
         f"{card['config']['endstate']['data_seed']} and run by the embedded MPM, plus {card['held_out_per_case']} "
         f"held out per {per}; SHA-256 `{card['data_fingerprint'][:16]}…`",
-        f"* {card['steps']} steps in {card['wall_s'] / 60:.1f} min ({card['config']['endstate']['threads']} CPU "
-        "threads); the last iterate is kept (one-cycle learning rate)",
+        f"* {card['steps']} steps in {card['wall_s'] / 60:.1f} min ({_hardware(card['config'])}); the last iterate "
+        "is kept (one-cycle learning rate)",
         f"* held-out loss at the end {last['valid_loss']:.4g} against the mean predictor's "
         f"{last['valid_mean_predictor_loss']:.4g} ({last['valid_loss'] / last['valid_mean_predictor_loss']:.4f} of it)",
         "",

@@ -47,6 +47,7 @@ class EndStateTrainSettings:
     seed: int = 0
     checkpoint_every: int = 250
     threads: int = 1
+    device: str = "cpu"
     threshold_weight: float = 0.0  # weight of the moved / not-moved term (0: mean squared error only)
     threshold_m: float = 1.0  # metrics.displacement_threshold_m
     threshold_width_m: float = 0.1  # width of the soft step at the threshold
@@ -65,6 +66,9 @@ class Examples:
 
     def __len__(self) -> int:
         return len(self.inputs)
+
+    def to(self, device: torch.device) -> Examples:
+        return Examples(self.inputs.to(device), self.targets.to(device))
 
 
 def normalization_of(states: list[EndState]) -> Normalization:
@@ -139,7 +143,7 @@ def training_step(
     threshold: ThresholdTerm | None = None,
 ) -> float:
     """One optimiser step on a batch drawn with replacement from ``data``; its loss."""
-    pick = torch.randint(0, len(data), (batch_size,), generator=batches)
+    pick = torch.randint(0, len(data), (batch_size,), generator=batches).to(data.inputs.device)
     loss = masked_loss(model, Examples(data.inputs[pick], data.targets[pick]), threshold)
     optimizer.zero_grad()
     loss.backward()
@@ -161,8 +165,10 @@ def train(
     torch.manual_seed(settings.seed)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    device = torch.device(settings.device)
     model = EndStateModel(lattice, normalization_of(states), settings.widths)
-    data, valid = examples(model, states), examples(model, held_out)
+    data, valid = examples(model, states).to(device), examples(model, held_out).to(device)
+    model.to(device)
     threshold = ThresholdTerm.of(settings, model.normalization.displacement_scale_m)
     optimizer = torch.optim.AdamW(model.parameters(), settings.learning_rate, weight_decay=settings.weight_decay)
     schedule = torch.optim.lr_scheduler.OneCycleLR(optimizer, settings.learning_rate, total_steps=settings.steps)
@@ -170,7 +176,7 @@ def train(
     start, history, elapsed = 0, [], 0.0
     latest = out_dir / CHECKPOINT
     if latest.exists():
-        state = torch.load(latest, weights_only=False)
+        state = torch.load(latest, map_location=device, weights_only=False)
         if state["settings"] == asdict(settings) and state["normalization"] == asdict(model.normalization):
             model.load_state_dict(state["weights"])
             optimizer.load_state_dict(state["optimizer"])
@@ -225,7 +231,7 @@ def train(
                     "settings": asdict(settings),
                 },
             )
-    return model.eval(), history
+    return model.to("cpu").eval(), history
 
 
 def write_history(history: list[dict], path: str | Path) -> None:
