@@ -115,6 +115,21 @@ def richardson(means: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return order, value
 
 
+def paired_bootstrap(samples: tuple[np.ndarray, ...], statistic, seed: int) -> tuple[np.ndarray, ...]:
+    """A vectorised statistic of paired samples, and its percentile bootstrap interval over the realizations."""
+    boot = stats.bootstrap(
+        samples,
+        statistic,
+        paired=True,
+        vectorized=True,
+        n_resamples=RESAMPLES,
+        method="percentile",
+        random_state=np.random.default_rng(seed),
+    )
+    low, high = boot.confidence_interval
+    return statistic(*samples), low, high
+
+
 def fit(values: np.ndarray, reduce=np.mean, seed: int = 0) -> dict:
     """Level values (``reduce`` over realizations: the mean, or a quantile), order, Richardson value and
     level errors of values [3 levels, n], with paired bootstrap intervals over the realizations."""
@@ -126,17 +141,7 @@ def fit(values: np.ndarray, reduce=np.mean, seed: int = 0) -> dict:
         errors = means - value[..., None]
         return np.moveaxis(np.concatenate([means, order[..., None], value[..., None], errors], axis=-1), -1, 0)
 
-    point = statistic(*values)
-    boot = stats.bootstrap(
-        tuple(values),
-        statistic,
-        paired=True,
-        vectorized=True,
-        n_resamples=RESAMPLES,
-        method="percentile",
-        random_state=np.random.default_rng(seed),
-    )
-    low, high = boot.confidence_interval
+    point, low, high = paired_bootstrap(tuple(values), statistic, seed)
     names = ["mean_1", "mean_0.5", "mean_0.25", "order", "richardson", "error_1", "error_0.5", "error_0.25"]
     return {
         name: {"value": float(p), "lower": float(lo), "upper": float(hi)}
@@ -281,17 +286,7 @@ def reference(values: np.ndarray, order: list[float], reduce=np.mean, seed: int 
         fine, coarse = reduce(quarter, axis=axis), reduce(half, axis=axis)
         return fine[None] + (fine - coarse)[None] / (2.0 ** orders.reshape(-1, *[1] * np.ndim(fine)) - 1.0)
 
-    point = statistic(values[1], values[2])
-    boot = stats.bootstrap(
-        (values[1], values[2]),
-        statistic,
-        paired=True,
-        vectorized=True,
-        n_resamples=RESAMPLES,
-        method="percentile",
-        random_state=np.random.default_rng(seed),
-    )
-    low, high = boot.confidence_interval
+    point, low, high = paired_bootstrap((values[1], values[2]), statistic, seed)
     return {"value": float(point[0]), "lower": float(np.min(low)), "upper": float(np.max(high))}
 
 

@@ -26,7 +26,13 @@ import pandas as pd
 from scipy import stats
 
 from rgns.hazard import zone_levels, zones
-from rgns.multifidelity import RESAMPLES, MultiFidelityError, corrected_affected_probability, expanded_level
+from rgns.multifidelity import (
+    RESAMPLES,
+    MultiFidelityError,
+    corrected_affected_probability,
+    distance_at,
+    expanded_level,
+)
 from rgns.multilevel import extrapolated, multilevel, richardson_step
 from rgns.realizations import FINISHED
 
@@ -83,11 +89,6 @@ def _quantile_steps(
     )
     low, high_end = boot.confidence_interval
     return point, np.minimum(np.asarray(low), point), np.maximum(np.asarray(high_end), point)
-
-
-def _distance_at(d_m: list[float], probability: list[float], p: float) -> float | None:
-    below = np.nonzero(np.asarray(probability) <= p)[0]
-    return float(d_m[below[0]]) if below.size else None
 
 
 def _orders(settings: dict[str, Any]) -> dict[str, np.ndarray | None]:
@@ -170,7 +171,7 @@ def converged(
         record["distances"][key] = {}
         for j, (p, distances) in enumerate(zip(probabilities, curve["distances"].values())):
             accurate = distances["corrected"]
-            band = (_distance_at(curve["d_m"], curve["lower"], p), _distance_at(curve["d_m"], curve["upper"], p))
+            band = (distance_at(curve["d_m"], curve["lower"], p), distance_at(curve["d_m"], curve["upper"], p))
             entry = {
                 "accurate": accurate,
                 "accurate_band": list(band),

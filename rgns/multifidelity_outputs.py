@@ -34,6 +34,7 @@ from rgns.multifidelity import (
     allocate,
     control_variate,  # noqa: E402
     corrected_affected_probability,
+    distance_at,
     optimal_ratio,
     pairs_for_half_width,
     predicted_half_width,
@@ -74,12 +75,6 @@ def _estimate_record(estimate: ControlVariateEstimate) -> dict[str, Any]:
         key: np.asarray(getattr(estimate, key)).tolist()
         for key in ("estimate", "lower", "upper", "high_mean", "low_mean", "weight", "correlation", "bias")
     }
-
-
-def distance_at(d_m: np.ndarray, probability: np.ndarray, p: float) -> float | None:
-    """The first distance whose exceedance probability is at most p (None if it never drops there)."""
-    below = np.nonzero(probability <= p)[0]
-    return float(d_m[below[0]]) if below.size else None
 
 
 def correct(
