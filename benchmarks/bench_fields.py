@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rgns.fields import CholeskySampler, FieldGrid, realize_fields
+from rgns.scene.fields import CholeskySampler, FieldGrid, realize_fields
 
 GROUP = {
     "friction_mean_deg": [20.0, 35.0],

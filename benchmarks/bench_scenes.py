@@ -26,7 +26,7 @@ from rgns.cbgeo.case import read_case
 from rgns.cbgeo.writer import case_from_scene, save_case
 from rgns.config import load_config
 from rgns.mpm.solver import EngineSettings, run_batch
-from rgns.realizations import CaseInputs, draw_realization
+from rgns.scene.realizations import CaseInputs, draw_realization
 
 REPO = Path(__file__).resolve().parent.parent
 

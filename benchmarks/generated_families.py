@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from rgns.config import load_config  # noqa: E402
-from rgns.geometry import build_scene  # noqa: E402
+from rgns.scene.geometry import build_scene  # noqa: E402
 
 config = load_config("config/pretrain_general.yaml")
 families = {n: f for n, f in config["geometry"]["families"].items() if "generator" in f}

@@ -4,7 +4,7 @@
     python benchmarks/mesh_levels.py                              # tables and plot from what is saved
 
 Each realization is the default config's Monte Carlo realization (the top-level seed), drawn as the
-pipeline's paired chunks draw it (``rgns.realizations.accurate_case_inputs``: the same slope and the
+pipeline's paired chunks draw it (``rgns.scene.realizations.accurate_case_inputs``: the same slope and the
 friction field on the 1 m grid at every mesh) and run as they run it (``run_realizations`` with the
 embedded MPM, screening included), at cells h = 1, 0.5, 0.25 m (``--cells``). Every run is saved alone
 to ``benchmarks/results/mesh_levels/<case>/h<h>/<index>.json`` as it finishes, so a killed run loses
@@ -38,7 +38,7 @@ from scipy import stats  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
 from rgns.montecarlo import CaseInputs, RunSettings, run_realizations  # noqa: E402
-from rgns.realizations import accurate_case_inputs  # noqa: E402
+from rgns.scene.realizations import accurate_case_inputs  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"

@@ -50,7 +50,7 @@ from rgns.multifidelity import (
     regression_point_estimate,
     speedup,
 )
-from rgns.realizations import FINISHED, draw_realization  # noqa: E402
+from rgns.scene.realizations import FINISHED, draw_realization  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent

@@ -29,7 +29,7 @@ from rgns.endstate.data import read_end_states, simulate_end_states
 from rgns.endstate.evaluate import agreement_table, markdown_table
 from rgns.endstate.model import load_model
 from rgns.metrics import MetricSettings
-from rgns.realizations import CaseInputs
+from rgns.scene.realizations import CaseInputs
 from rgns.trajectories import frame_count
 
 REPO = Path(__file__).resolve().parent.parent

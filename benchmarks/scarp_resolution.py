@@ -32,7 +32,7 @@ from rgns.config import load_config
 from rgns.endstate.model import load_model
 from rgns.metrics import DISPLACEMENT_THRESHOLD_M, crest_x, influence_distance
 from rgns.montecarlo import simulate_endstate, simulate_mpm
-from rgns.realizations import CaseInputs, draw_realization
+from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.trajectories import frame_count
 from rgns.validation import r_squared
 

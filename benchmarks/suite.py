@@ -67,7 +67,7 @@ from rgns.montecarlo import (
     simulate_gns,
     simulate_mpm,
 )
-from rgns.realizations import CaseInputs, draw_realization  # noqa: E402
+from rgns.scene.realizations import CaseInputs, draw_realization  # noqa: E402
 from rgns.screening import ScreenSettings  # noqa: E402
 from rgns.shipped import MODELS  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402

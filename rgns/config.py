@@ -17,7 +17,7 @@ import jsonschema
 import numpy as np
 import yaml
 
-from rgns.site import apply_site
+from rgns.scene.site import apply_site
 
 log = logging.getLogger(__name__)
 
@@ -136,7 +136,7 @@ def as_range(value: float | list[float]) -> tuple[float, float]:
 
 def consistency_errors(config: dict[str, Any]) -> list[str]:
     """Cross-key errors that the schema cannot express, one readable line each."""
-    from rgns.geometry import polygon_problems  # local: geometry imports nothing from here
+    from rgns.scene.geometry import polygon_problems  # local: geometry imports nothing from here
 
     errors: list[str] = []
     for where, value in _ranges(config):
@@ -214,7 +214,7 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
 
 def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
     """A generated family's parameters: every one its kind needs, none it does not know."""
-    from rgns.slope_generator import REQUIRED  # local: only needed here
+    from rgns.scene.slope_generator import REQUIRED  # local: only needed here
 
     known = set(REQUIRED[family["generator"]])
     given = set(family["params"])

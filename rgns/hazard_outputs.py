@@ -26,7 +26,7 @@ from rgns.hazard import (
     zones,
 )
 from rgns.hazard_plots import plot_convergence, plot_exceedance, plot_zoning
-from rgns.realizations import FINISHED
+from rgns.scene.realizations import FINISHED
 from rgns.tables import write_csv
 
 # report label -> column of the Monte Carlo table (the paper reports I, then R)

@@ -73,13 +73,13 @@ def _read_zip(path: Path) -> None:
 
 
 def _read_scene(path: Path) -> None:
-    from rgns.geometry import read_scene
+    from rgns.scene.geometry import read_scene
 
     read_scene(path)
 
 
 def _read_field(path: Path) -> None:
-    from rgns.fields import read_field
+    from rgns.scene.fields import read_field
 
     read_field(str(path))
 

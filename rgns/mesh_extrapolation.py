@@ -34,7 +34,7 @@ from rgns.multifidelity import (
     expanded_level,
 )
 from rgns.multilevel import extrapolated, multilevel, richardson_step
-from rgns.realizations import FINISHED
+from rgns.scene.realizations import FINISHED
 
 MEANS = ("runout_m", "volume_m2", "influence_m")
 ENDS = ("front_x_m", "rear_x_m")

@@ -1,5 +1,5 @@
 """Monte Carlo realizations of a test case: simulate (GNS, end-state surrogate or embedded MPM) and measure the
-realizations :mod:`rgns.realizations` draws. Realizations are simulated in
+realizations :mod:`rgns.scene.realizations` draws. Realizations are simulated in
 batches of ``batch_size`` aligned on the index (batch k holds k·B … k·B + B − 1), so a table does
 not depend on how the realizations are split into chunks (chunk sizes are multiples of B).
 
@@ -35,7 +35,14 @@ from rgns.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
 from rgns.mpm.solver import EngineSettings, RunResult, run_batch
-from rgns.realizations import FINISHED, MEAN_FIELD, CaseInputs, Realization, draw_realization, mean_field_realization
+from rgns.scene.realizations import (
+    FINISHED,
+    MEAN_FIELD,
+    CaseInputs,
+    Realization,
+    draw_realization,
+    mean_field_realization,
+)
 from rgns.screening import ScreenSettings, minimum_factor_of_safety
 from rgns.tables import TableError, read_chunk
 from rgns.trajectories import frame_count

@@ -42,7 +42,7 @@ from rgns.multifidelity import (
     regression_control_variate,
     speedup,
 )
-from rgns.realizations import FINISHED  # noqa: E402
+from rgns.scene.realizations import FINISHED  # noqa: E402
 
 METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
 CURVES = ("runout_m", "influence_m")

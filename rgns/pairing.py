@@ -19,10 +19,10 @@ import numpy as np
 import pandas as pd
 
 from rgns.endstate.model import EndStateModel
-from rgns.geometry import Scene
 from rgns.gns.rollout import RolloutSettings, rollout_soil
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
+from rgns.scene.geometry import Scene
 from rgns.trajectories import Trajectory
 
 log = logging.getLogger(__name__)

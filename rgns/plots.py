@@ -10,8 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rgns.fields import FrictionField  # noqa: E402
-from rgns.geometry import Scene  # noqa: E402
+from rgns.scene.fields import FrictionField  # noqa: E402
+from rgns.scene.geometry import Scene  # noqa: E402
 
 
 def plot_scenes(scenes: list[Scene], fields: list[FrictionField], path: str | Path) -> None:
@@ -97,8 +97,8 @@ def plot_learning_curve(history_csv: str | Path, path: str | Path) -> None:
 def plot_metric_sketch(path: str | Path) -> None:
     """The README's sketch of R, V and I, measured by rgns.metrics on a constructed slide: the
     wedge above a 30° plane through the toe slides 6 m down it and spreads along the floor."""
-    from rgns.geometry import seed_particles
     from rgns.metrics import crest_x, displaced, runout_metrics
+    from rgns.scene.geometry import seed_particles
 
     vertices = np.array([[0.0, 0.0], [30.0, 0.0], [20.0, 10.0], [0.0, 10.0]])
     initial, volumes = seed_particles(vertices, 0.5, 2)

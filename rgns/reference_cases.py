@@ -9,8 +9,8 @@ from pathlib import Path
 from rgns.cbgeo.case import Case
 from rgns.cbgeo.writer import case_from_scene, save_case
 from rgns.config import DEFAULT_CONFIG_PATH, load_config
-from rgns.fields import FieldGrid, friction_field
-from rgns.geometry import build_scene
+from rgns.scene.fields import FieldGrid, friction_field
+from rgns.scene.geometry import build_scene
 
 
 def failing_slope(

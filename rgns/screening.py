@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from rgns.geometry import WALL_TOLERANCE_M
+from rgns.scene.geometry import WALL_TOLERANCE_M
 
 M_ALPHA_MIN = 0.2  # Whitman & Bailey (1967): Bishop's method is unreliable where m_alpha falls this low
 FLOOR_TOLERANCE_M = 1e-6  # how far an arc may dip below the polygon's bottom (rounding)

@@ -5,9 +5,9 @@ from dataclasses import asdict
 from pathlib import Path
 from types import SimpleNamespace
 
-from rgns.fields import FIELD_KEYS
-from rgns.geometry import DRAW_KEYS
-from rgns.realizations import CaseInputs, accurate_case_inputs, mean_vertices
+from rgns.scene.fields import FIELD_KEYS
+from rgns.scene.geometry import DRAW_KEYS
+from rgns.scene.realizations import CaseInputs, accurate_case_inputs, mean_vertices
 from rgns.sets import realization_group, realization_ids
 from rgns.trajectories import frame_count
 

@@ -1,5 +1,5 @@
 # A real site's GIS files (config site): zones along the section line, exceedance per chainage, map view.
-from rgns.site_section import site_file
+from rgns.scene.site_section import site_file
 
 SITE = config.get("site")
 # the GIS files of the site's Monte Carlo case (a map view only where a DEM was given)

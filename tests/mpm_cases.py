@@ -10,8 +10,8 @@ import numpy as np
 from rgns.cbgeo.case import Case, read_case
 from rgns.cbgeo.writer import write_case
 from rgns.config import load_config
-from rgns.fields import FieldGrid, FrictionField
-from rgns.geometry import Scene, seed_particles
+from rgns.scene.fields import FieldGrid, FrictionField
+from rgns.scene.geometry import Scene, seed_particles
 
 DEFAULT_MPM = load_config()["mpm"]
 ELASTIC = {"cohesion_pa": 1e9, "tension_cutoff_pa": 1e9}  # strength so high the soil never yields

@@ -16,7 +16,7 @@ from rgns.cbgeo.case import FRICTION_FILE, META_FILE, CaseError, read_case
 from rgns.cbgeo.writer import write_case
 from rgns.cli import main
 from rgns.config import load_config
-from rgns.realizations import CaseInputs, draw_realization
+from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.trajectories import read_trajectory
 
 DURATION_S = 0.5  # what mpm.json says: nsteps × dt

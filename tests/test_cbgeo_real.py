@@ -15,8 +15,8 @@ import pytest
 from rgns.cbgeo.output import read_frames
 from rgns.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
 from rgns.cbgeo.writer import write_case
-from rgns.fields import FieldGrid, friction_field
-from rgns.geometry import build_scene
+from rgns.scene.fields import FieldGrid, friction_field
+from rgns.scene.geometry import build_scene
 
 BINARY = os.environ.get("RGNS_MPM_BINARY") or shutil.which("mpm")
 pytestmark = pytest.mark.skipif(BINARY is None, reason="CB-Geo mpm not installed (set RGNS_MPM_BINARY)")

@@ -19,8 +19,8 @@ from rgns.cbgeo.runner import MPMDiverged, MPMRunError, run_cbgeo, trajectory_fr
 from rgns.cbgeo.writer import write_case
 from rgns.config import load_yaml
 from rgns.engines import simulate_chunk
-from rgns.fields import FieldGrid, friction_field
-from rgns.geometry import build_scene
+from rgns.scene.fields import FieldGrid, friction_field
+from rgns.scene.geometry import build_scene
 from rgns.trajectories import read_packed, read_trajectory
 
 LABEL = "train realization 0001"

@@ -23,10 +23,10 @@ from rgns.cbgeo.writer import (
     write_case,
 )
 from rgns.config import ConfigError, load_config, validate_config
-from rgns.fields import FieldGrid, friction_field
-from rgns.geometry import build_scene, signed_area
 from rgns.mpm.solver import EngineSettings, run_batch
-from rgns.realizations import CaseInputs, draw_realization
+from rgns.scene.fields import FieldGrid, friction_field
+from rgns.scene.geometry import build_scene, signed_area
+from rgns.scene.realizations import CaseInputs, draw_realization
 
 MOHR_COULOMB_KEYS = {
     "id",

@@ -13,11 +13,11 @@ from rgns.endstate.data import EndState, EndStateDataError, read_end_states, wri
 from rgns.endstate.lattice import Lattice, LatticeError
 from rgns.endstate.model import EndStateModel, EndStateModelError, Normalization, load_model
 from rgns.endstate.train import EndStateTrainSettings, examples, held_out_loss, normalization_of, train
-from rgns.geometry import Scene, seed_particles
 from rgns.metrics import MetricSettings, crest_x
 from rgns.montecarlo import MonteCarloError, RunSettings, run_realizations
 from rgns.pairing import pair_end_states
-from rgns.realizations import CaseInputs, draw_realization
+from rgns.scene.geometry import Scene, seed_particles
+from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.shipped import ShippedModelError
 from rgns.trajectories import Trajectory
 

@@ -14,7 +14,7 @@ from rgns.config import load_config
 from rgns.endstate.card import check_serves, outside_ranges
 from rgns.endstate.model import load_model
 from rgns.montecarlo import RunSettings, run_realizations
-from rgns.realizations import CaseInputs
+from rgns.scene.realizations import CaseInputs
 from rgns.shipped import MODELS, ShippedModelError, read_card
 from rgns.validation import r_squared
 

@@ -16,7 +16,7 @@ from rgns.endstate.model import EndStateModel, load_model
 from rgns.endstate.train import examples, held_out_loss, normalization_of
 from rgns.endstate.tuned_card import check_tuned_serves
 from rgns.endstate.tuning import TuneSettings, coarse_grained, fine_tune
-from rgns.geometry import seed_particles
+from rgns.scene.geometry import seed_particles
 from rgns.shipped import MODELS, ShippedModelError, read_card
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from rgns.fields import (
+from rgns.scene.fields import (
     CholeskySampler,
     FieldGrid,
     KroneckerSampler,

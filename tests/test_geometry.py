@@ -9,7 +9,7 @@ import pytest
 from matplotlib.path import Path as MplPath
 
 from rgns.config import as_range
-from rgns.geometry import (
+from rgns.scene.geometry import (
     GeometryError,
     build_scene,
     is_simple,

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from rgns.geometry import seed_particles, signed_area
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
+from rgns.scene.geometry import seed_particles, signed_area
 
 SLOPE = np.array([[0.0, 0.0], [30.0, 0.0], [20.0, 10.0], [0.0, 10.0]])  # toe at x = 30, crest at x = 20
 SPACING = 0.25

@@ -7,10 +7,10 @@ import pytest
 from conftest import TINY_CONFIG
 
 from rgns.config import load_config
-from rgns.fields import FieldGrid, friction_field
-from rgns.geometry import build_scene
 from rgns.montecarlo import MonteCarloError, RunSettings, _aligned_batches, run_realizations
-from rgns.realizations import MEAN_FIELD, CaseInputs, draw_realization, mean_field_realization
+from rgns.scene.fields import FieldGrid, friction_field
+from rgns.scene.geometry import build_scene
+from rgns.scene.realizations import MEAN_FIELD, CaseInputs, draw_realization, mean_field_realization
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from rgns.geometry import seed_particles
+from rgns.scene.geometry import seed_particles
 from rgns.screening import ScreenResult, ScreenSettings, minimum_factor_of_safety, surface_height
 
 GAMMA = 1800.0 * 9.81

@@ -14,7 +14,7 @@ from conftest import REPO
 from rgns.config import load_config
 from rgns.gns.train import load_simulator
 from rgns.montecarlo import RunSettings, run_realizations
-from rgns.realizations import CaseInputs
+from rgns.scene.realizations import CaseInputs
 from rgns.shipped import MODELS, ShippedModelError, check_serves, read_card
 
 DEFAULT = load_config(REPO / "config" / "config.yaml")

@@ -17,9 +17,9 @@ from rasterio.transform import Affine
 from workflow_helpers import scheduled, snakemake, write_config
 
 from rgns.config import ConfigError, load_yaml, validate_config
-from rgns.geometry import build_scene
+from rgns.scene.geometry import build_scene
+from rgns.scene.site_section import Section, SiteError, cumulative_length, read_section, sample_dem
 from rgns.site_gis import exceedance_by_chainage, write_site_gis
-from rgns.site_section import Section, SiteError, cumulative_length, read_section, sample_dem
 
 WEST, NORTH, PIXEL = 1000.0, 2060.0, 1.0  # raster origin (m) and pixel size of the test DEMs
 CRS = "EPSG:32632"
@@ -299,7 +299,7 @@ def test_a_base_above_the_surface_is_named(tmp_path):
 
 def test_a_section_no_field_can_fail_warns(tmp_path, caplog):
     config = site_config(tmp_path, friction_mean_deg=60.0, friction_std_deg=2.0)
-    with caplog.at_level(logging.WARNING, logger="rgns.site"):
+    with caplog.at_level(logging.WARNING, logger="rgns.scene.site"):
         validate_config(config)
     assert (
         "no realization is likely to fail" in caplog.text and "steepest face of the section is 45.0 deg" in caplog.text

@@ -11,9 +11,9 @@ from conftest import REPO
 
 from rgns.config import load_config, load_yaml, validate_config
 from rgns.endstate.data import simulate_end_states
-from rgns.geometry import build_scene, polygon_problems
-from rgns.realizations import CaseInputs, mean_vertices
-from rgns.slope_generator import GeneratorError, generate_vertices
+from rgns.scene.geometry import build_scene, polygon_problems
+from rgns.scene.realizations import CaseInputs, mean_vertices
+from rgns.scene.slope_generator import GeneratorError, generate_vertices
 
 PRETRAIN = load_config(REPO / "config" / "pretrain_general.yaml")
 FAMILIES = {name: family for name, family in PRETRAIN["geometry"]["families"].items() if "generator" in family}

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 
 from rgns.cbgeo.case import FRICTION_FILE, INPUT_JSON, META_FILE, Case
-from rgns.geometry import Scene
 from rgns.geostatic import geostatic_stresses
+from rgns.scene.geometry import Scene
 
 PAD_CELLS = 1
 MESH_FILE = "mesh.txt"

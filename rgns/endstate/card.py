@@ -82,7 +82,7 @@ def body_height_m(vertices: np.ndarray) -> float:
 
 def outside_ranges(card: dict[str, Any], config: dict[str, Any], cases: list[str]) -> list[str]:
     """One line per Monte Carlo case's field statistic or body height outside the card's ranges."""
-    from rgns.realizations import mean_vertices  # local: only needed here
+    from rgns.scene.realizations import mean_vertices  # local: only needed here
 
     ranges = card.get("ranges")
     if not ranges:

@@ -17,7 +17,7 @@ import numpy as np
 
 from rgns.atomic import atomic_path
 from rgns.montecarlo import simulate_mpm
-from rgns.realizations import CaseInputs, draw_realization
+from rgns.scene.realizations import CaseInputs, draw_realization
 
 
 class EndStateDataError(ValueError):

@@ -19,7 +19,7 @@ import pandas as pd
 from rgns.endstate.data import EndState
 from rgns.endstate.model import EndStateModel
 from rgns.metrics import MetricSettings, crest_x, runout_metrics
-from rgns.realizations import CaseInputs, draw_scene
+from rgns.scene.realizations import CaseInputs, draw_scene
 from rgns.validation import METRICS, bootstrap_mean_interval, nrmse, paired_interval, r_squared
 
 

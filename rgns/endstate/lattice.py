@@ -1,7 +1,7 @@
 """The material points' regular sub-grid as an image, so that a convolutional network can read a
 slope and write one displacement per point.
 
-Points are seeded at ((k + ½)/n) of each MPM cell (rgns.geometry.seed_particles), so at the start
+Points are seeded at ((k + ½)/n) of each MPM cell (rgns.scene.geometry.seed_particles), so at the start
 of a run every point owns one pixel of a lattice of spacing cell/n anchored at the left wall and
 the floor: an image of ``rows`` × ``columns`` pixels. A domain shorter or lower than the model's
 fits in its image (the pixels beyond stay empty), so the image of a slope does not depend on the

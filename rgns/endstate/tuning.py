@@ -28,7 +28,7 @@ from rgns.endstate.model import EndStateModel
 from rgns.endstate.train import Examples, held_out_loss, training_step
 from rgns.metrics import MetricSettings, crest_x, runout_metrics
 from rgns.montecarlo import simulate_mpm
-from rgns.realizations import CaseInputs, draw_realization
+from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.validation import agreement
 
 log = logging.getLogger(__name__)

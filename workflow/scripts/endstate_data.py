@@ -4,7 +4,7 @@ import torch
 
 from rgns.endstate.data import simulate_end_states, write_end_states
 from rgns.logsetup import log_to_file
-from rgns.realizations import CaseInputs
+from rgns.scene.realizations import CaseInputs
 
 log = log_to_file(snakemake.log[0])
 torch.set_num_threads(snakemake.threads)

@@ -10,7 +10,7 @@ from rgns.endstate.evaluate import agreement_table, markdown_table
 from rgns.endstate.model import load_model
 from rgns.logsetup import log_to_file
 from rgns.metrics import MetricSettings
-from rgns.realizations import CaseInputs
+from rgns.scene.realizations import CaseInputs
 
 log = log_to_file(snakemake.log[0], "rgns")
 torch.set_num_threads(snakemake.threads)

@@ -1,7 +1,7 @@
 """Rule geometry: draw one realization's polygon and particles, write its scene file."""
 
-from rgns.geometry import build_scene, write_scene
 from rgns.logsetup import log_to_file
+from rgns.scene.geometry import build_scene, write_scene
 
 log = log_to_file(snakemake.log[0])
 params = snakemake.params[0]

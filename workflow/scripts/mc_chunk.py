@@ -13,7 +13,7 @@ from rgns.gate import SURROGATE_NAMES, GateError, simulator_for
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
 from rgns.montecarlo import SURROGATES, CaseInputs, RunSettings, run_realizations
-from rgns.realizations import FINISHED
+from rgns.scene.realizations import FINISHED
 from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])

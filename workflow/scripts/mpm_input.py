@@ -1,9 +1,9 @@
 """Rule mpm_input: write one realization's CB-Geo case directory."""
 
 from rgns.cbgeo.writer import write_case
-from rgns.fields import read_field
-from rgns.geometry import read_scene
 from rgns.logsetup import log_to_file
+from rgns.scene.fields import read_field
+from rgns.scene.geometry import read_scene
 
 log = log_to_file(snakemake.log[0])
 scene = read_scene(snakemake.input.scene)

@@ -1,8 +1,8 @@
 """Rule random_field: draw one realization's friction field onto its scene's particles."""
 
-from rgns.fields import FieldGrid, friction_field, write_field
-from rgns.geometry import read_scene
 from rgns.logsetup import log_to_file
+from rgns.scene.fields import FieldGrid, friction_field, write_field
+from rgns.scene.geometry import read_scene
 
 log = log_to_file(snakemake.log[0])
 params = snakemake.params[0]

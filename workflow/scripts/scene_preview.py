@@ -1,9 +1,9 @@
 """Rule scene_preview: picture the first realizations of a set."""
 
-from rgns.fields import read_field
-from rgns.geometry import read_scene
 from rgns.logsetup import log_to_file
 from rgns.plots import plot_scenes
+from rgns.scene.fields import read_field
+from rgns.scene.geometry import read_scene
 
 log = log_to_file(snakemake.log[0])
 plot_scenes(

@@ -5,8 +5,8 @@ from pathlib import Path
 
 from rgns.hazard_outputs import finished
 from rgns.logsetup import log_to_file
+from rgns.scene.site_section import read_section
 from rgns.site_gis import write_site_gis
-from rgns.site_section import read_section
 from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])

@@ -5,7 +5,7 @@ import torch
 from rgns.endstate.data import write_end_states
 from rgns.endstate.tuning import simulate_tuning_states
 from rgns.logsetup import log_to_file
-from rgns.realizations import CaseInputs
+from rgns.scene.realizations import CaseInputs
 
 log = log_to_file(snakemake.log[0])
 torch.set_num_threads(snakemake.threads)

@@ -5,12 +5,12 @@ import numpy as np
 import torch
 
 from rgns.endstate.model import load_model
-from rgns.geometry import read_scene
 from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
 from rgns.metrics import MetricSettings
 from rgns.montecarlo import rollout_settings
 from rgns.pairing import pair_case, pair_end_states
+from rgns.scene.geometry import read_scene
 from rgns.tables import write_csv
 from rgns.trajectories import read_packed
 

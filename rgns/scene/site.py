@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from rgns.fields import FIELD_KEYS
-from rgns.geometry import polygon_problems, signed_area
-from rgns.site_section import Section, SiteError, read_section
+from rgns.scene.fields import FIELD_KEYS
+from rgns.scene.geometry import polygon_problems, signed_area
+from rgns.scene.site_section import Section, SiteError, read_section
 
 log = logging.getLogger(__name__)
 

@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from rgns.fields import FIELD_KEYS, FieldGrid, friction_field
-from rgns.geometry import DRAW_KEYS, Scene, build_scene, seed_particles
-from rgns.slope_generator import generate_vertices, midpoint_family
+from rgns.scene.fields import FIELD_KEYS, FieldGrid, friction_field
+from rgns.scene.geometry import DRAW_KEYS, Scene, build_scene, seed_particles
+from rgns.scene.slope_generator import generate_vertices, midpoint_family
 
 MEAN_FIELD = -1  # the index recorded for the mean-field realization
 FINISHED = ("ok", "screened")  # statuses of rows with metrics (screened: found stable, counted as no failure)

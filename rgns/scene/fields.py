@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from rgns.seeds import realization_rng
+from rgns.scene.seeds import realization_rng
 
 METHODS = ("kronecker", "cholesky")
 

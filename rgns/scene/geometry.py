@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 from matplotlib.path import Path as MplPath
 
-from rgns.seeds import realization_rng
-from rgns.slope_generator import generate_vertices
+from rgns.scene.seeds import realization_rng
+from rgns.scene.slope_generator import generate_vertices
 
 WALL_TOLERANCE_M = 1e-9
 
@@ -96,7 +96,7 @@ def polygon_problems(
 
 def sample_vertices(family: dict[str, Any], rng: np.random.Generator, family_name: str = "") -> np.ndarray:
     """Draw every ranged coordinate of a family uniformly in [min, max]; fixed ones stay. A generated
-    family (``generator``, rgns.slope_generator) draws its parameters and builds its polygon."""
+    family (``generator``, rgns.scene.slope_generator) draws its parameters and builds its polygon."""
     if "generator" in family:
         return generate_vertices(family_name, family, rng)
     vertices = np.empty((len(family["vertices"]), 2))

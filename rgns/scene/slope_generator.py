@@ -12,12 +12,12 @@ and closes it along the floor (y = 0), so a polygon always rests on the floor:
 * ``embankment``: a free-standing body with faces of ``face_angle_deg`` (right) and
   ``back_angle_deg`` (left), a crest ``crest_length_m`` wide tilted by ``crest_tilt_deg``, its left
   toe at ``left_toe_m``.
-* ``terrain``: a hillside cut from a synthetic terrain the way rgns.site cuts a DEM section: a
+* ``terrain``: a hillside cut from a synthetic terrain the way rgns.scene.site cuts a DEM section: a
   smooth step of ``height_m`` over ``face_length_m`` plus ``bumps`` sinusoids of relative amplitude
   ``roughness``, a plateau tilted by ``crest_tilt_deg`` behind it, the body from the left wall to
   where the ground meets the base.
 
-Draws that make an invalid polygon (rgns.geometry.polygon_problems) are redrawn by the caller.
+Draws that make an invalid polygon (rgns.scene.geometry.polygon_problems) are redrawn by the caller.
 """
 
 from __future__ import annotations
