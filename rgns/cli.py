@@ -13,7 +13,7 @@ from rgns.config_reference import config_reference
 from rgns.sets import set_size
 
 if TYPE_CHECKING:
-    from rgns.cbgeo.case import Case
+    from rgns.scene.case import Case
 
 
 def _check_config(args: argparse.Namespace) -> int:
@@ -39,7 +39,7 @@ def _config_reference(args: argparse.Namespace) -> int:
 
 def _trajectory_paths(cases: list[Case], out: Path) -> list[Path]:
     """``out/<set>_<index>.h5`` per case; a CaseError naming the cases when two would share a file."""
-    from rgns.cbgeo.case import CaseError
+    from rgns.scene.case import CaseError
 
     paths = [out / f"{case.set_name}_{case.index:04d}.h5" for case in cases]
     for path in sorted(set(paths)):
@@ -57,8 +57,9 @@ def _mpm(args: argparse.Namespace) -> int:
 
     import torch
 
-    from rgns.cbgeo.case import CaseError, read_case, to_trajectory
+    from rgns.cbgeo.case import read_case, to_trajectory
     from rgns.mpm.solver import EngineSettings, run_batch
+    from rgns.scene.case import CaseError
     from rgns.trajectories import write_trajectory
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")

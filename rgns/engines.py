@@ -17,9 +17,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from rgns.cbgeo.case import Case, read_case, to_trajectory
+from rgns.cbgeo.case import read_case, to_trajectory
 from rgns.cbgeo.runner import MPMDiverged, MPMRunError, run_cbgeo, trajectory_from_cbgeo
 from rgns.mpm.solver import EngineSettings, run_batch
+from rgns.scene.case import Case
 from rgns.trajectories import write_trajectory
 
 ENGINES = ("embedded", "cbgeo")

@@ -1,4 +1,4 @@
-"""A CB-Geo case: what both engines and the tests see, built in memory or read from a directory.
+"""A CB-Geo case directory read into the realization every engine runs (:class:`rgns.scene.case.Case`).
 
 A realization's case is built in memory (:func:`rgns.cbgeo.writer.case_from_scene`); its case
 directory is one serialization of it (:func:`rgns.cbgeo.writer.save_case`), which
@@ -15,12 +15,12 @@ file is a :class:`CaseError` naming the file (and the key).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rgns.scene.case import Case, CaseError, per_particle
 from rgns.trajectories import SOIL, Trajectory
 
 INPUT_JSON = "mpm.json"
@@ -32,89 +32,6 @@ CONSTRAINT_KEYS = {
     "velocity_constraints": ("nset_id", "dir", "velocity"),
     "friction_constraints": ("nset_id", "dir", "sign_n", "friction"),
 }
-
-
-class CaseError(ValueError):
-    """A case directory is missing a file, or a file is malformed; the message names it."""
-
-
-@dataclass
-class Case:
-    """Everything an MPM engine needs from one case, in memory or read from a directory."""
-
-    directory: Path | None  # None: built in memory
-    meta: dict[str, Any]  # rgns-case.json: set, index, domain, frame interval ({} for a plain CB-Geo case)
-    config: dict[str, Any]  # mpm.json
-    nodes: np.ndarray  # [Nn, 2]
-    cells: np.ndarray  # [Nc, 4]
-    positions: np.ndarray  # [N, 2]
-    volumes: np.ndarray  # [N]
-    stresses: np.ndarray | None  # [N, 6], CB-Geo order, tension positive
-    material_id: np.ndarray  # [N] after material_sets
-    friction_deg: np.ndarray  # [N] exact (rgns's own file), else the material's
-    node_sets: dict[int, np.ndarray]
-    particle_sets: dict[int, np.ndarray]
-
-    @property
-    def materials(self) -> dict[int, dict[str, Any]]:
-        return {int(m["id"]): m for m in self.config["materials"]}
-
-    @property
-    def binned_friction_deg(self) -> np.ndarray:
-        """Friction angle per particle as CB-Geo sees it (its material's)."""
-        return _per_particle(self.config, self.material_id, "friction")
-
-    @property
-    def density_kg_m3(self) -> np.ndarray:
-        return _per_particle(self.config, self.material_id, "density")
-
-    @property
-    def set_name(self) -> str:
-        """rgns's set name, or the directory's name for a plain CB-Geo case."""
-        return self.meta["set_name"] if "set_name" in self.meta else Path(self.directory).resolve().name
-
-    @property
-    def index(self) -> int:
-        return int(self.meta.get("index", 0))
-
-    @property
-    def source(self) -> str:
-        """Where the case comes from, for messages: its directory, or the realization built in memory."""
-        if self.directory is not None:
-            return str(self.directory)
-        return f"{self.set_name} realization {self.index:04d} (in memory)"
-
-    @property
-    def dt_s(self) -> float:
-        return float(self.config["analysis"]["dt"])
-
-    @property
-    def frame_interval_s(self) -> float:
-        """``analysis.dt`` × ``post_processing.output_steps`` of ``mpm.json``."""
-        return _steps_to_seconds(self.dt_s, self.config["post_processing"]["output_steps"])
-
-    @property
-    def duration_s(self) -> float:
-        """``analysis.dt`` × ``analysis.nsteps`` of ``mpm.json``."""
-        return _steps_to_seconds(self.dt_s, self.config["analysis"]["nsteps"])
-
-    @property
-    def bounds(self) -> np.ndarray:
-        """[[x0, x1], [y0, y1]]: rgns's domain, or the mesh's extent for a plain CB-Geo case."""
-        if "domain_length_m" in self.meta:
-            return np.array([[0.0, self.meta["domain_length_m"]], [0.0, self.meta["domain_height_m"]]])
-        return np.column_stack([self.nodes.min(axis=0), self.nodes.max(axis=0)])
-
-
-def _per_particle(config: dict[str, Any], material_id: np.ndarray, key: str) -> np.ndarray:
-    """A material property per particle."""
-    materials = {int(m["id"]): m for m in config["materials"]}
-    return np.array([materials[int(k)][key] for k in material_id], dtype=float)
-
-
-def _steps_to_seconds(dt_s: float, steps: int) -> float:
-    """``steps`` × ``dt_s`` to 12 significant digits, so 300 steps of 1e-4 s are 0.03 s, not 0.030000000000000002."""
-    return float(f"{dt_s * int(steps):.12g}")
 
 
 def _data_lines(path: Path) -> list[str]:
@@ -396,7 +313,7 @@ def read_case(directory: str | Path) -> Case:
     material_id = _material_ids(config, generator, particle_sets, len(positions), input_path, sets_path)
     friction_deg = _friction(directory, len(positions))
     if friction_deg is None:
-        friction_deg = _per_particle(config, material_id, "friction")
+        friction_deg = per_particle(config, material_id, "friction")
     return Case(
         directory,
         meta,

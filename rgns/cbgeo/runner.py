@@ -14,8 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from rgns.cbgeo import writer as names
-from rgns.cbgeo.case import Case, read_case, to_trajectory
+from rgns.cbgeo.case import read_case, to_trajectory
 from rgns.cbgeo.output import OutputError, read_frames
+from rgns.scene.case import Case
 from rgns.trajectories import Trajectory
 
 

@@ -28,8 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from rgns.cbgeo.case import FRICTION_FILE, INPUT_JSON, META_FILE, Case
+from rgns.cbgeo.case import FRICTION_FILE, INPUT_JSON, META_FILE
 from rgns.geostatic import geostatic_stresses
+from rgns.scene.case import Case
 from rgns.scene.geometry import Scene
 
 PAD_CELLS = 1

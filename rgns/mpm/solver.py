@@ -24,10 +24,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from rgns.cbgeo.case import Case, CaseError
 from rgns.mpm.mohr_coulomb import MohrCoulomb
 from rgns.mpm.shape import BASES, Basis, Region, RegularGrid
 from rgns.mpm.step import Boundary, Particles, substep
+from rgns.scene.case import Case, CaseError
 from rgns.trajectories import frame_count, kept_frames
 
 log = logging.getLogger(__name__)
