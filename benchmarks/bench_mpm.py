@@ -27,11 +27,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from rgns.cbgeo.case import read_case
-from rgns.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
 from rgns.config import load_config
+from rgns.engines.cbgeo.case import read_case
+from rgns.engines.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
+from rgns.engines.mpm.solver import EngineSettings, run_batch
 from rgns.metrics import crest_x, influence_distance, runout_distance, sliding_volume
-from rgns.mpm.solver import EngineSettings, run_batch
 from rgns.reference_cases import failing_slope
 from rgns.scene.case import Case
 

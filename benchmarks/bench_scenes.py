@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from rgns.cbgeo.case import read_case
-from rgns.cbgeo.writer import case_from_scene, save_case
 from rgns.config import load_config
-from rgns.mpm.solver import EngineSettings, run_batch
+from rgns.engines.cbgeo.case import read_case
+from rgns.engines.cbgeo.writer import case_from_scene, save_case
+from rgns.engines.mpm.solver import EngineSettings, run_batch
 from rgns.scene.realizations import CaseInputs, draw_realization
 
 REPO = Path(__file__).resolve().parent.parent

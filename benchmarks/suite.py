@@ -51,10 +51,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from rgns.cbgeo.runner import MPMDiverged, run_cbgeo, trajectory_from_cbgeo  # noqa: E402
-from rgns.cbgeo.writer import write_case  # noqa: E402
 from rgns.config import load_config  # noqa: E402
 from rgns.endstate.model import load_model  # noqa: E402
+from rgns.engines.cbgeo.runner import MPMDiverged, run_cbgeo, trajectory_from_cbgeo  # noqa: E402
+from rgns.engines.cbgeo.writer import write_case  # noqa: E402
 from rgns.gns.rollout import RolloutSettings  # noqa: E402
 from rgns.gns.train import load_simulator, settings_from_config, train  # noqa: E402
 from rgns.metrics import MetricSettings  # noqa: E402

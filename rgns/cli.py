@@ -57,8 +57,8 @@ def _mpm(args: argparse.Namespace) -> int:
 
     import torch
 
-    from rgns.cbgeo.case import read_case, to_trajectory
-    from rgns.mpm.solver import EngineSettings, run_batch
+    from rgns.engines.cbgeo.case import read_case, to_trajectory
+    from rgns.engines.mpm.solver import EngineSettings, run_batch
     from rgns.scene.case import CaseError
     from rgns.trajectories import write_trajectory
 

@@ -29,12 +29,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rgns.cbgeo.writer import case_from_scene
 from rgns.endstate.model import EndStateModel
+from rgns.engines.cbgeo.writer import case_from_scene
+from rgns.engines.mpm.solver import EngineSettings, RunResult, run_batch
 from rgns.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
-from rgns.mpm.solver import EngineSettings, RunResult, run_batch
 from rgns.scene.realizations import (
     FINISHED,
     MEAN_FIELD,

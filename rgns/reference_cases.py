@@ -6,8 +6,8 @@ import copy
 import dataclasses
 from pathlib import Path
 
-from rgns.cbgeo.writer import case_from_scene, save_case
 from rgns.config import DEFAULT_CONFIG_PATH, load_config
+from rgns.engines.cbgeo.writer import case_from_scene, save_case
 from rgns.scene.case import Case
 from rgns.scene.fields import FieldGrid, friction_field
 from rgns.scene.geometry import build_scene

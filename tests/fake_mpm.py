@@ -16,7 +16,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from rgns.cbgeo.case import read_case
+from rgns.engines.cbgeo.case import read_case
 
 FIELDS = [
     ("id", "<u8"),

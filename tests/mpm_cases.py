@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rgns.cbgeo.case import read_case
-from rgns.cbgeo.writer import write_case
 from rgns.config import load_config
+from rgns.engines.cbgeo.case import read_case
+from rgns.engines.cbgeo.writer import write_case
 from rgns.scene.case import Case
 from rgns.scene.fields import FieldGrid, FrictionField
 from rgns.scene.geometry import Scene, seed_particles

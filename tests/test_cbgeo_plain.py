@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from conftest import TINY_CONFIG
 
-from rgns.cbgeo.case import FRICTION_FILE, META_FILE, read_case
-from rgns.cbgeo.writer import write_case
 from rgns.cli import main
 from rgns.config import load_config
+from rgns.engines.cbgeo.case import FRICTION_FILE, META_FILE, read_case
+from rgns.engines.cbgeo.writer import write_case
 from rgns.scene.case import CaseError
 from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.trajectories import read_trajectory

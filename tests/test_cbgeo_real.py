@@ -12,9 +12,9 @@ import shutil
 import numpy as np
 import pytest
 
-from rgns.cbgeo.output import read_frames
-from rgns.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
-from rgns.cbgeo.writer import write_case
+from rgns.engines.cbgeo.output import read_frames
+from rgns.engines.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
+from rgns.engines.cbgeo.writer import write_case
 from rgns.scene.fields import FieldGrid, friction_field
 from rgns.scene.geometry import build_scene
 

@@ -15,10 +15,10 @@ import pytest
 from conftest import TINY_CONFIG
 from workflow_helpers import fake_mpm_binary, snakemake, write_config
 
-from rgns.cbgeo.runner import MPMDiverged, MPMRunError, run_cbgeo, trajectory_from_cbgeo
-from rgns.cbgeo.writer import write_case
 from rgns.config import load_yaml
-from rgns.engines import simulate_chunk
+from rgns.engines.cbgeo.runner import MPMDiverged, MPMRunError, run_cbgeo, trajectory_from_cbgeo
+from rgns.engines.cbgeo.writer import write_case
+from rgns.engines.chunk import simulate_chunk
 from rgns.scene.fields import FieldGrid, friction_field
 from rgns.scene.geometry import build_scene
 from rgns.trajectories import read_packed, read_trajectory

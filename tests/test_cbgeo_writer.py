@@ -10,8 +10,9 @@ import pytest
 import torch
 from conftest import TINY_CONFIG
 
-from rgns.cbgeo.case import read_case, read_mesh
-from rgns.cbgeo.writer import (
+from rgns.config import ConfigError, load_config, validate_config
+from rgns.engines.cbgeo.case import read_case, read_mesh
+from rgns.engines.cbgeo.writer import (
     FLOOR,
     GENERATOR_PSET,
     LEFT_WALL,
@@ -22,8 +23,7 @@ from rgns.cbgeo.writer import (
     save_case,
     write_case,
 )
-from rgns.config import ConfigError, load_config, validate_config
-from rgns.mpm.solver import EngineSettings, run_batch
+from rgns.engines.mpm.solver import EngineSettings, run_batch
 from rgns.scene.fields import FieldGrid, friction_field
 from rgns.scene.geometry import build_scene, signed_area
 from rgns.scene.realizations import CaseInputs, draw_realization

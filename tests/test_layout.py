@@ -35,8 +35,8 @@ def test_the_scene_imports_no_later_stage():
 
 def test_the_embedded_engine_imports_no_file_format():
     formats = {
-        module: sorted(m for m in found if m.startswith("rgns.cbgeo"))
-        for module, found in rgns_imports(PACKAGE / "mpm").items()
+        module: sorted(m for m in found if m.startswith("rgns.engines.cbgeo"))
+        for module, found in rgns_imports(PACKAGE / "engines" / "mpm").items()
     }
     assert {module: found for module, found in formats.items() if found} == {}
-    assert "rgns.scene.case" in rgns_imports(PACKAGE / "mpm")["solver.py"]
+    assert "rgns.scene.case" in rgns_imports(PACKAGE / "engines" / "mpm")["solver.py"]

@@ -7,10 +7,10 @@ import pytest
 import torch
 from mpm_cases import ELASTIC, polygon_case
 
-from rgns.mpm.mohr_coulomb import MohrCoulomb, return_map, yield_function
-from rgns.mpm.shape import BASES, Region, RegularGrid
-from rgns.mpm.solver import EngineSettings, basis_of, particles_of, run_batch
-from rgns.mpm.step import p2g
+from rgns.engines.mpm.mohr_coulomb import MohrCoulomb, return_map, yield_function
+from rgns.engines.mpm.shape import BASES, Region, RegularGrid
+from rgns.engines.mpm.solver import EngineSettings, basis_of, particles_of, run_batch
+from rgns.engines.mpm.step import p2g
 
 G = 9.81
 
@@ -258,7 +258,7 @@ def test_keeping_only_the_ends_returns_exactly_those_frames_of_a_full_run(tmp_pa
 def unpadded_runs(tmp_path_factory):
     """A column collapse and a failing slope on meshes that end at the walls and the floor (as CB-Geo
     users write them), and the same slope on the padded mesh rgns writes: B-splines, default settings."""
-    import rgns.cbgeo.writer as writer
+    import rgns.engines.cbgeo.writer as writer
 
     directory = tmp_path_factory.mktemp("unpadded")
     torch.set_num_threads(1)

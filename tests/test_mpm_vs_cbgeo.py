@@ -9,10 +9,10 @@ from dataclasses import replace
 import pytest
 import torch
 
-from rgns.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
 from rgns.config import load_config
+from rgns.engines.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
+from rgns.engines.mpm.solver import EngineSettings, run_batch
 from rgns.metrics import runout_distance, sliding_volume
-from rgns.mpm.solver import EngineSettings, run_batch
 from rgns.reference_cases import failing_slope
 
 BINARY = os.environ.get("RGNS_MPM_BINARY") or shutil.which("mpm")

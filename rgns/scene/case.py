@@ -1,8 +1,8 @@
 """The realization every engine runs: its mesh, material points, stresses, materials and
 constraints, in memory (:class:`Case`).
 
-Built from a drawn scene by :func:`rgns.cbgeo.writer.case_from_scene`; CB-Geo's case directory is
-one serialization of it (:func:`rgns.cbgeo.writer.save_case` writes it, :func:`rgns.cbgeo.case.read_case`
+Built from a drawn scene by :func:`rgns.engines.cbgeo.writer.case_from_scene`; CB-Geo's case directory is
+one serialization of it (:func:`rgns.engines.cbgeo.writer.save_case` writes it, :func:`rgns.engines.cbgeo.case.read_case`
 reads it back to the same numbers). Its fields follow CB-Geo's input model (``mpm.json``'s analysis,
 materials and constraints), which both engines read; the embedded engine takes it without importing
 a file format.
@@ -55,7 +55,11 @@ class Case:
     @property
     def set_name(self) -> str:
         """rgns's set name, or the directory's name for a plain CB-Geo case."""
-        return self.meta["set_name"] if "set_name" in self.meta else Path(self.directory).resolve().name
+        if "set_name" in self.meta:
+            return self.meta["set_name"]
+        if self.directory is None:
+            raise CaseError("a case built in memory has no set name (meta 'set_name')")
+        return Path(self.directory).resolve().name
 
     @property
     def index(self) -> int:

@@ -1,6 +1,6 @@
 """Rule mpm_input: write one realization's CB-Geo case directory."""
 
-from rgns.cbgeo.writer import write_case
+from rgns.engines.cbgeo.writer import write_case
 from rgns.logsetup import log_to_file
 from rgns.scene.fields import read_field
 from rgns.scene.geometry import read_scene

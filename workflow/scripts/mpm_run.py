@@ -1,6 +1,6 @@
 """Rule mpm_run: run one chunk of cases through the configured MPM engine."""
 
-from rgns.engines import simulate_chunk
+from rgns.engines.chunk import simulate_chunk
 from rgns.logsetup import log_to_file
 
 log = log_to_file(snakemake.log[0])

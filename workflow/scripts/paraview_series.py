@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from rgns.engines import trajectory_name
+from rgns.engines.chunk import trajectory_name
 from rgns.logsetup import log_to_file
 from rgns.paraview import write_vtu_series
 from rgns.trajectories import read_trajectory

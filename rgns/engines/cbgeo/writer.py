@@ -2,7 +2,7 @@
 
 :func:`case_from_scene` builds the case in memory (what the Monte Carlo simulates);
 :func:`save_case` writes a case as a CB-Geo case directory, its one serialization, with 17
-significant digits so that :func:`rgns.cbgeo.case.read_case` gives back the same numbers. The
+significant digits so that :func:`rgns.engines.cbgeo.case.read_case` gives back the same numbers. The
 directory is the contract between the writer and both engines: the real ``mpm`` binary and
 rgns's embedded engine read the same files. Layout (names fixed here, in ``mpm.json``):
 
@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from rgns.cbgeo.case import FRICTION_FILE, INPUT_JSON, META_FILE
+from rgns.engines.cbgeo.case import FRICTION_FILE, INPUT_JSON, META_FILE
 from rgns.geostatic import geostatic_stresses
 from rgns.scene.case import Case
 from rgns.scene.geometry import Scene

@@ -20,8 +20,8 @@ from dataclasses import dataclass, fields
 
 import torch
 
-from rgns.mpm.mohr_coulomb import MohrCoulomb, elastic_increment, return_map
-from rgns.mpm.shape import Weights
+from rgns.engines.mpm.mohr_coulomb import MohrCoulomb, elastic_increment, return_map
+from rgns.engines.mpm.shape import Weights
 
 MASS_TOLERANCE = 1e-15  # as CB-Geo: nodes lighter than this carry no velocity
 

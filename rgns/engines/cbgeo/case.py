@@ -1,7 +1,7 @@
 """A CB-Geo case directory read into the realization every engine runs (:class:`rgns.scene.case.Case`).
 
-A realization's case is built in memory (:func:`rgns.cbgeo.writer.case_from_scene`); its case
-directory is one serialization of it (:func:`rgns.cbgeo.writer.save_case`), which
+A realization's case is built in memory (:func:`rgns.engines.cbgeo.writer.case_from_scene`); its case
+directory is one serialization of it (:func:`rgns.engines.cbgeo.writer.save_case`), which
 :func:`read_case` reads back to the same numbers. :func:`read_case` also reads plain CB-Geo case
 directories in the subset the embedded engine supports: an ED2Q4 mesh, one file generator,
 particle volumes, optional stresses, entity sets, ``MohrCoulomb2D`` materials and
@@ -281,7 +281,7 @@ def _friction(directory: Path, n_particles: int) -> np.ndarray | None:
 
 
 def read_case(directory: str | Path) -> Case:
-    """Read a case directory: one :func:`rgns.cbgeo.writer.save_case` wrote, or a plain CB-Geo one."""
+    """Read a case directory: one :func:`rgns.engines.cbgeo.writer.save_case` wrote, or a plain CB-Geo one."""
     directory = Path(directory)
     input_path = directory / INPUT_JSON
     config = _read_json(input_path)

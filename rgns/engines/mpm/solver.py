@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from rgns.mpm.mohr_coulomb import MohrCoulomb
-from rgns.mpm.shape import BASES, Basis, Region, RegularGrid
-from rgns.mpm.step import Boundary, Particles, substep
+from rgns.engines.mpm.mohr_coulomb import MohrCoulomb
+from rgns.engines.mpm.shape import BASES, Basis, Region, RegularGrid
+from rgns.engines.mpm.step import Boundary, Particles, substep
 from rgns.scene.case import Case, CaseError
 from rgns.trajectories import frame_count, kept_frames
 

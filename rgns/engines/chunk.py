@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from rgns.cbgeo.case import read_case, to_trajectory
-from rgns.cbgeo.runner import MPMDiverged, MPMRunError, run_cbgeo, trajectory_from_cbgeo
-from rgns.mpm.solver import EngineSettings, run_batch
+from rgns.engines.cbgeo.case import read_case, to_trajectory
+from rgns.engines.cbgeo.runner import MPMDiverged, MPMRunError, run_cbgeo, trajectory_from_cbgeo
+from rgns.engines.mpm.solver import EngineSettings, run_batch
 from rgns.scene.case import Case
 from rgns.trajectories import write_trajectory
 

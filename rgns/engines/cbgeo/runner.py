@@ -13,9 +13,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rgns.cbgeo import writer as names
-from rgns.cbgeo.case import read_case, to_trajectory
-from rgns.cbgeo.output import OutputError, read_frames
+from rgns.engines.cbgeo import writer as names
+from rgns.engines.cbgeo.case import read_case, to_trajectory
+from rgns.engines.cbgeo.output import OutputError, read_frames
 from rgns.scene.case import Case
 from rgns.trajectories import Trajectory
 
