@@ -25,7 +25,7 @@ import torch
 
 from rgns.config import load_config
 from rgns.gns.train import load_simulator
-from rgns.hazard import exceedance_distances
+from rgns.hazard.statistics import exceedance_distances
 from rgns.montecarlo import CaseInputs, RunSettings, run_realizations
 from rgns.shipped import MODELS
 

@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from rgns.hazard import zone_levels, zones
+from rgns.hazard.statistics import zone_levels, zones
 from rgns.multifidelity import (
     RESAMPLES,
     MultiFidelityError,

@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from rgns.hazard import ZONE_LEVELS, exceedance_distances, zone_levels, zones  # noqa: E402
+from rgns.hazard.statistics import ZONE_LEVELS, exceedance_distances, zone_levels, zones  # noqa: E402
 from rgns.mesh_extrapolation import converged  # noqa: E402
 from rgns.multifidelity import (
     ControlVariateEstimate,
@@ -286,7 +286,7 @@ def write_multifidelity(
     for key, curve in record["exceedance"].items():  # the Monte Carlo's own curve, what its map is drawn from
         values = finished[key].to_numpy(float)
         curve["simulator"] = [float(np.mean(values > d)) for d in curve["d_m"]]
-        # its distances by the exceedance table's own estimator (rgns.hazard), so the two tables agree
+        # its distances by the exceedance table's own estimator (rgns.hazard.statistics), so the two tables agree
         own_distances = exceedance_distances(values, [float(p) for p in curve["distances"]], confidence=0.95)
         for distances, own_distance in zip(curve["distances"].values(), own_distances):
             distances["simulator"] = own_distance.distance_m

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from rgns.hazard import (
+from rgns.hazard.plots import plot_convergence, plot_exceedance, plot_zoning
+from rgns.hazard.statistics import (
     DEFAULT_THRESHOLDS,
     ZONE_LEVELS,
     Zone,
@@ -20,7 +21,6 @@ from rgns.hazard import (
     zone_levels,
     zones,
 )
-from rgns.hazard_plots import plot_convergence, plot_exceedance, plot_zoning
 
 CONFIDENCE = 0.95
 

@@ -40,3 +40,14 @@ def test_the_embedded_engine_imports_no_file_format():
     }
     assert {module: found for module, found in formats.items() if found} == {}
     assert "rgns.scene.case" in rgns_imports(PACKAGE / "engines" / "mpm")["solver.py"]
+
+
+def test_the_hazard_stage_reads_tables_and_scenes_only():
+    """Hazard statistics, their files and figures, and a site's GIS outputs take a Monte Carlo table:
+    nothing of the engines, the surrogates or the Monte Carlo's simulators."""
+    allowed = ("rgns.hazard", "rgns.scene", "rgns.tables", "rgns.atomic")
+    others = {
+        module: sorted(m for m in found if not m.startswith(allowed))
+        for module, found in rgns_imports(PACKAGE / "hazard").items()
+    }
+    assert {module: found for module, found in others.items() if found} == {}

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rgns.hazard import ZONE_LEVELS
+from rgns.hazard.statistics import ZONE_LEVELS
 from rgns.multifidelity import MultiFidelityError
 from rgns.multifidelity_outputs import correct, write_multifidelity
 

@@ -17,9 +17,9 @@ from rasterio.transform import Affine
 from workflow_helpers import scheduled, snakemake, write_config
 
 from rgns.config import ConfigError, load_yaml, validate_config
+from rgns.hazard.site_gis import exceedance_by_chainage, write_site_gis
 from rgns.scene.geometry import build_scene
 from rgns.scene.site_section import Section, SiteError, cumulative_length, read_section, sample_dem
-from rgns.site_gis import exceedance_by_chainage, write_site_gis
 
 WEST, NORTH, PIXEL = 1000.0, 2060.0, 1.0  # raster origin (m) and pixel size of the test DEMs
 CRS = "EPSG:32632"

@@ -1,6 +1,6 @@
 """Rule exceedance: exceedance curves and convergence of I and R for one Monte Carlo case."""
 
-from rgns.hazard_outputs import write_exceedance
+from rgns.hazard.outputs import write_exceedance
 from rgns.logsetup import log_to_file
 from rgns.tables import read_csv
 

@@ -3,10 +3,10 @@
 import json
 from pathlib import Path
 
-from rgns.hazard_outputs import finished
+from rgns.hazard.outputs import finished
+from rgns.hazard.site_gis import write_site_gis
 from rgns.logsetup import log_to_file
 from rgns.scene.site_section import read_section
-from rgns.site_gis import write_site_gis
 from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])

@@ -1,6 +1,6 @@
 """Rule zoning: five-level hazard zoning along the cross-section for one Monte Carlo case."""
 
-from rgns.hazard_outputs import write_zoning
+from rgns.hazard.outputs import write_zoning
 from rgns.logsetup import log_to_file
 from rgns.tables import read_csv
 

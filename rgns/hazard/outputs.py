@@ -15,7 +15,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rgns.hazard import (
+from rgns.hazard.plots import plot_convergence, plot_exceedance, plot_zoning
+from rgns.hazard.statistics import (
     ZONE_LEVELS,
     affected_probability,
     convergence,
@@ -25,7 +26,6 @@ from rgns.hazard import (
     zone_range_labels,
     zones,
 )
-from rgns.hazard_plots import plot_convergence, plot_exceedance, plot_zoning
 from rgns.scene.realizations import FINISHED
 from rgns.tables import write_csv
 

@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Patch, Rectangle  # noqa: E402
 
-from rgns.hazard import (  # noqa: E402
+from rgns.hazard.statistics import (  # noqa: E402
     ZONE_LEVELS,
     AffectedProbability,
     ConvergenceTrace,
