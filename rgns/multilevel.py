@@ -79,7 +79,7 @@ def _weights(levels: list[np.ndarray], n0: int, axis: int) -> list[np.ndarray]:
     return weights
 
 
-def _estimate(levels: list[np.ndarray], axis: int) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+def mfmc_estimate(levels: list[np.ndarray], axis: int) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
     """The estimate, the weights and each level's correction, the realizations along ``axis``."""
     counts = [level.shape[axis] for level in levels]
     weights = _weights(levels, counts[0], axis)
@@ -133,8 +133,8 @@ def multilevel(
         raise MultiFidelityError(f"confidence must lie in (0, 1), got {confidence}")
     shape = np.asarray(levels[0]).shape[1:]
     arrays = _checked(levels)
-    estimate, weights, corrections = _estimate(arrays, axis=0)
-    lower, upper = _bootstrap(arrays, lambda r: _estimate(r, axis=-2)[0], confidence, resamples, seed)
+    estimate, weights, corrections = mfmc_estimate(arrays, axis=0)
+    lower, upper = _bootstrap(arrays, lambda r: mfmc_estimate(r, axis=-2)[0], confidence, resamples, seed)
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)
     return MultilevelEstimate(
         estimate=estimate.reshape(shape),
@@ -193,7 +193,7 @@ def extrapolated(
 
     def statistic(resampled: list[np.ndarray]) -> np.ndarray:
         n0 = resampled[0].shape[-2]
-        estimate = _estimate(resampled, axis=-2)[0]
+        estimate = mfmc_estimate(resampled, axis=-2)[0]
         step = richardson_step(
             resampled[0].mean(axis=-2), resampled[1][..., :n0, :].mean(axis=-2), ratio, orders[:, None, None]
         )  # [3, B, Q]
