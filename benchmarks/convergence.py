@@ -42,8 +42,9 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
+from rgns.engines.batch import simulate_mpm  # noqa: E402
 from rgns.metrics import MetricSettings  # noqa: E402
-from rgns.montecarlo import measure, simulate_mpm  # noqa: E402
+from rgns.montecarlo import measure  # noqa: E402
 from rgns.scene.geometry import Scene, seed_particles  # noqa: E402
 from rgns.scene.realizations import CaseInputs, Realization, draw_realization  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402

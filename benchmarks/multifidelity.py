@@ -42,7 +42,8 @@ from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the
 
 from rgns.config import load_config  # noqa: E402
 from rgns.endstate.model import load_model  # noqa: E402
-from rgns.montecarlo import simulate_endstate, simulate_mpm  # noqa: E402
+from rgns.engines.batch import simulate_mpm  # noqa: E402
+from rgns.montecarlo import simulate_endstate  # noqa: E402
 from rgns.multifidelity import (
     optimal_ratio,
     point_estimate,

@@ -30,8 +30,9 @@ import torch
 
 from rgns.config import load_config
 from rgns.endstate.model import load_model
+from rgns.engines.batch import simulate_mpm
 from rgns.metrics import DISPLACEMENT_THRESHOLD_M, crest_x, influence_distance
-from rgns.montecarlo import simulate_endstate, simulate_mpm
+from rgns.montecarlo import simulate_endstate
 from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.trajectories import frame_count
 from rgns.validation import r_squared

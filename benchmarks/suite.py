@@ -53,6 +53,7 @@ import torch  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
 from rgns.endstate.model import load_model  # noqa: E402
+from rgns.engines.batch import simulate_mpm
 from rgns.engines.cbgeo.runner import MPMDiverged, run_cbgeo, trajectory_from_cbgeo  # noqa: E402
 from rgns.engines.cbgeo.writer import write_case  # noqa: E402
 from rgns.gns.rollout import RolloutSettings  # noqa: E402
@@ -65,7 +66,6 @@ from rgns.montecarlo import (
     rollout_settings,
     simulate_endstate,  # noqa: E402
     simulate_gns,
-    simulate_mpm,
 )
 from rgns.scene.realizations import CaseInputs, draw_realization  # noqa: E402
 from rgns.screening import ScreenSettings  # noqa: E402

@@ -30,8 +30,7 @@ import numpy as np
 import pandas as pd
 
 from rgns.endstate.model import EndStateModel
-from rgns.engines.cbgeo.writer import case_from_scene
-from rgns.engines.mpm.solver import EngineSettings, RunResult, run_batch
+from rgns.engines.batch import Simulated, run_mpm, simulate_mpm
 from rgns.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
 from rgns.gns.simulator import LearnedSimulator
 from rgns.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
@@ -56,26 +55,6 @@ class MonteCarloError(ValueError):
     """A Monte Carlo case cannot be set up; the message names the config key."""
 
 
-@dataclass
-class Simulated:
-    """A simulator's answer for one realization."""
-
-    positions: np.ndarray  # [T, N, 2]
-    status: str
-
-
-def _run_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, keep: str = "all") -> list[RunResult]:
-    """``frames`` frames of the embedded MPM engine, on the realizations' cases built in memory."""
-    cases = [case_from_scene(r.scene, r.friction_deg, mpm) for r in batch]
-    duration_s = (frames - 1) * mpm["frame_interval_s"]
-    return run_batch(cases, EngineSettings.from_config(mpm["embedded"]), duration_s, mpm["frame_interval_s"], keep=keep)
-
-
-def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, keep: str = "all") -> list[Simulated]:
-    """Run a batch through the embedded MPM engine, keeping ``keep`` frames ("all" or "ends")."""
-    return [Simulated(result.positions, result.status) for result in _run_mpm(batch, mpm, frames, keep)]
-
-
 def simulate_gns(
     simulator: LearnedSimulator,
     batch: list[Realization],
@@ -85,7 +64,7 @@ def simulate_gns(
     rollout: RolloutSettings | None = None,
 ) -> list[Simulated]:
     """MPM for the warm-up (``rollout.warmup_frames``, at least ``history + 1``), then the GNS to ``frames``."""
-    warmup = _run_mpm(batch, mpm, (rollout or RolloutSettings()).handover(simulator.settings.history))
+    warmup = run_mpm(batch, mpm, (rollout or RolloutSettings()).handover(simulator.settings.history))
     results = rollout_soil(
         simulator, [w.positions for w in warmup], [r.friction_deg for r in batch], frames, rollout, device
     )

@@ -15,8 +15,8 @@ from workflow_helpers import scheduled, snakemake, write_config
 
 from rgns.config import load_config, load_yaml
 from rgns.endstate.data import read_end_states
+from rgns.engines.batch import simulate_mpm
 from rgns.metrics import MetricSettings, crest_x, runout_metrics
-from rgns.montecarlo import simulate_mpm
 from rgns.scene.fields import read_field
 from rgns.scene.geometry import read_scene
 from rgns.scene.realizations import CaseInputs, draw_realization

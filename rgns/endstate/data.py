@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 
 from rgns.atomic import atomic_path
-from rgns.montecarlo import simulate_mpm
+from rgns.engines.batch import simulate_mpm
 from rgns.scene.realizations import CaseInputs, draw_realization
 
 

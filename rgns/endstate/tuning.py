@@ -26,8 +26,8 @@ import torch
 from rgns.endstate.data import EndState
 from rgns.endstate.model import EndStateModel
 from rgns.endstate.train import Examples, held_out_loss, training_step
+from rgns.engines.batch import simulate_mpm
 from rgns.metrics import MetricSettings, crest_x, runout_metrics
-from rgns.montecarlo import simulate_mpm
 from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.validation import agreement
 
