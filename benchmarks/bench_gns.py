@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from rgns.gns.data import WindowSampler
-from rgns.gns.rollout import RolloutSettings, rollout
-from rgns.gns.simulator import LearnedSimulator, ModelSettings, Normalization
-from rgns.gns.train import load_simulator
-from rgns.metrics import runout_distance
+from rgns.engines.metrics import runout_distance
+from rgns.surrogates.gns.data import WindowSampler
+from rgns.surrogates.gns.rollout import RolloutSettings, rollout
+from rgns.surrogates.gns.simulator import LearnedSimulator, ModelSettings, Normalization
+from rgns.surrogates.gns.train import load_simulator
 
 
 def realizations(paths: list[str], history: int, frames: int | None, limit: int | None) -> list[dict]:

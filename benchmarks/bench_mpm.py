@@ -29,10 +29,10 @@ import torch
 
 from rgns.config import load_config
 from rgns.engines.cbgeo.case import read_case
+from rgns.engines.cbgeo.reference_cases import failing_slope
 from rgns.engines.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
+from rgns.engines.metrics import crest_x, influence_distance, runout_distance, sliding_volume
 from rgns.engines.mpm.solver import EngineSettings, run_batch
-from rgns.metrics import crest_x, influence_distance, runout_distance, sliding_volume
-from rgns.reference_cases import failing_slope
 from rgns.scene.case import Case
 
 

@@ -4,7 +4,7 @@
     python benchmarks/bench_scenes.py --frames 401          # the full 10 s
 
 Both routes simulate the same default-config case-1 realizations with the default engine settings,
-one CPU thread, alternating route by route: ``memory`` is what rgns.montecarlo does (each case
+one CPU thread, alternating route by route: ``memory`` is what rgns.montecarlo.runs does (each case
 built by ``case_from_scene``), ``disk`` is what it did before (each case written as a CB-Geo
 directory into a scratch folder and read back). Prints the time per realization of each (median
 of the repeats), the ratio, the time of the case set-up alone, and whether the trajectories are

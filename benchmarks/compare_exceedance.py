@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from rgns.validation import r_squared
+from rgns.surrogates.validation import r_squared
 
 METRICS = ("runout_m", "volume_m2", "influence_m")
 

@@ -7,7 +7,7 @@
 Parts (each saved to ``benchmarks/results/convergence/<part>-<shape>.json``, so parts can run in
 parallel processes and be re-run alone):
 
-* ``slopes``: the default config's case-1 Monte Carlo realizations (drawn as rgns.montecarlo
+* ``slopes``: the default config's case-1 Monte Carlo realizations (drawn as rgns.montecarlo.runs
   draws them; the random field on a fixed 1 m grid, so every mesh samples the same field), 10 s,
   default engine settings, at cell sizes h = 2, 1, 0.5 m (all realizations) and 0.25 m (the first
   ``--fine-realizations``). R, V, I and the verdict failed (R > 0) / stood.
@@ -43,8 +43,8 @@ import torch  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
 from rgns.engines.batch import simulate_mpm  # noqa: E402
-from rgns.metrics import MetricSettings  # noqa: E402
-from rgns.montecarlo import measure  # noqa: E402
+from rgns.engines.metrics import MetricSettings  # noqa: E402
+from rgns.montecarlo.runs import measure  # noqa: E402
 from rgns.scene.geometry import Scene, seed_particles  # noqa: E402
 from rgns.scene.realizations import CaseInputs, Realization, draw_realization  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402

@@ -13,10 +13,10 @@ import argparse
 import numpy as np
 import torch
 
-from rgns.gns.data import WindowSampler
-from rgns.gns.rollout import RolloutSettings, rollout_soil
-from rgns.gns.train import load_simulator, particle_crest_x
-from rgns.metrics import runout_metrics
+from rgns.engines.metrics import runout_metrics
+from rgns.surrogates.gns.data import WindowSampler
+from rgns.surrogates.gns.rollout import RolloutSettings, rollout_soil
+from rgns.surrogates.gns.train import load_simulator, particle_crest_x
 
 
 def main() -> None:

@@ -29,9 +29,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from rgns.gns.data import WindowSampler
-from rgns.gns.simulator import LearnedSimulator, ModelSettings, OneStepLoss, random_walk_noise
-from rgns.gns.train import TrainSettings, fixed_windows, learning_rate, one_step_losses, rollout_score
+from rgns.surrogates.gns.data import WindowSampler
+from rgns.surrogates.gns.simulator import LearnedSimulator, ModelSettings, OneStepLoss, random_walk_noise
+from rgns.surrogates.gns.train import TrainSettings, fixed_windows, learning_rate, one_step_losses, rollout_score
 
 RESULTS = Path(__file__).parent / "results"
 RECIPE = {

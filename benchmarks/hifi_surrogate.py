@@ -5,10 +5,10 @@ surrogate fine-tuned on 0.5 m MPM runs, as the cheap route of the multi-fidelity
 
 1. Case-1 realizations of another seed (``--seed``; the pool is the default seed's 0..63) run by the
    embedded MPM at 0.5 m cells, each end state coarse-grained onto the 1 m mesh's point lattice
-   (``rgns.endstate.tuning.simulate_tuning_states``, as the pipeline's rule tuned_data). Chunks of 8,
+   (``rgns.surrogates.endstate.tuning.simulate_tuning_states``, as the pipeline's rule tuned_data). Chunks of 8,
    cached in ``--data``.
 2. The shipped model (``rgns/models/endstate.pt``) trained further on the first ``--train`` of them
-   (``rgns.endstate.tuning.fine_tune``, as the pipeline's rule tune_endstate); the rest are held out.
+   (``rgns.surrogates.endstate.tuning.fine_tune``, as the pipeline's rule tune_endstate); the rest are held out.
 3. Both models run on the pool of ``benchmarks/multifidelity.py`` (its ``multifidelity.json``) and
    analysed there as cheap routes against the 0.5 m MPM: correlation and speed-up at equal error.
 
@@ -29,10 +29,10 @@ import torch
 from suite import case_inputs
 
 from rgns.config import load_config
-from rgns.endstate.data import read_end_states, write_end_states
-from rgns.endstate.model import load_model
-from rgns.endstate.train import examples, held_out_loss
-from rgns.endstate.tuning import TuneSettings, fine_tune, simulate_tuning_states
+from rgns.surrogates.endstate.data import read_end_states, write_end_states
+from rgns.surrogates.endstate.model import load_model
+from rgns.surrogates.endstate.train import examples, held_out_loss
+from rgns.surrogates.endstate.tuning import TuneSettings, fine_tune, simulate_tuning_states
 from rgns.trajectories import frame_count
 
 REPO = Path(__file__).resolve().parent.parent

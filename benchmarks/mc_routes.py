@@ -3,7 +3,7 @@
     python benchmarks/mc_routes.py                    # default config, its case and realizations
     python benchmarks/mc_routes.py --realizations 16  # fewer
 
-Both routes draw exactly the realizations ``hazard_map`` draws (``rgns.montecarlo.run_realizations``
+Both routes draw exactly the realizations ``hazard_map`` draws (``rgns.montecarlo.runs.run_realizations``
 with the config's settings), the GNS one with the shipped model whatever the validation gate says.
 Per route: the exceedance distances of R and I at p = 0.5 and 0.1 with their 95 % order-statistic
 intervals (``rgns.hazard.exceedance_distances``), the means, and the wall time per realization;
@@ -24,10 +24,10 @@ import numpy as np
 import torch
 
 from rgns.config import load_config
-from rgns.gns.train import load_simulator
 from rgns.hazard.statistics import exceedance_distances
-from rgns.montecarlo import CaseInputs, RunSettings, run_realizations
-from rgns.shipped import MODELS
+from rgns.montecarlo.runs import CaseInputs, RunSettings, run_realizations
+from rgns.surrogates.gns.train import load_simulator
+from rgns.surrogates.shipped import MODELS
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"

@@ -37,7 +37,7 @@ import torch  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
-from rgns.montecarlo import CaseInputs, RunSettings, run_realizations  # noqa: E402
+from rgns.montecarlo.runs import CaseInputs, RunSettings, run_realizations  # noqa: E402
 from rgns.scene.realizations import accurate_case_inputs  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent

@@ -4,7 +4,7 @@
     python benchmarks/multifidelity.py --analyse       # again from multifidelity.json (+ mc_routes.json's GNS,
                                                        #   + the shipped end-state surrogate, run here)
 
-A pool of default-config case-1 realizations (drawn as ``rgns.montecarlo`` draws them, the field
+A pool of default-config case-1 realizations (drawn as ``rgns.montecarlo.runs`` draws them, the field
 on the 1 m grid so every mesh samples the same field) is run by the embedded MPM at 0.5 m cells
 (the high fidelity: 1.2 % of range from the 0.5 m / cfl 0.1 reference in ``suite.md``) and by the
 cheap routes: the MPM at 1 m (the default) and at 2 m, the shipped end-state surrogate
@@ -17,7 +17,7 @@ The pool is the population: its high-fidelity mean of each quantity Q (mean R; P
 the pool's 50 % and 10 % exceedance distances) is the reference. At equal wall time B, plain MC
 draws B / c_H realizations with replacement; multi-fidelity MC draws n pairs and N = r n cheap
 runs (r the MFMC optimal ratio from the pool's correlation and the measured costs) with
-n c_H + N c_L = B, and combines them with ``rgns.multifidelity.control_variate``. The mean squared
+n c_H + N c_L = B, and combines them with ``rgns.fidelity.multifidelity.control_variate``. The mean squared
 error over 2,000 draws per budget, plain over multi-fidelity, is the speed-up at equal error (both
 errors scale as 1/B). Writes ``benchmarks/results/multifidelity.json``, ``multifidelity.md`` and
 ``multifidelity.png``.
@@ -41,17 +41,17 @@ import torch  # noqa: E402
 from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the same drawing and measuring)
 
 from rgns.config import load_config  # noqa: E402
-from rgns.endstate.model import load_model  # noqa: E402
 from rgns.engines.batch import simulate_mpm  # noqa: E402
-from rgns.montecarlo import simulate_endstate  # noqa: E402
-from rgns.multifidelity import (
+from rgns.fidelity.multifidelity import (
     optimal_ratio,
     point_estimate,
     predicted_exceedance,  # noqa: E402
     regression_point_estimate,
     speedup,
 )
+from rgns.montecarlo.runs import simulate_endstate  # noqa: E402
 from rgns.scene.realizations import FINISHED, draw_realization  # noqa: E402
+from rgns.surrogates.endstate.model import load_model  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent

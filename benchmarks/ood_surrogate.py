@@ -25,11 +25,11 @@ import pandas as pd
 import torch
 
 from rgns.config import load_config
-from rgns.endstate.data import read_end_states, simulate_end_states
-from rgns.endstate.evaluate import agreement_table, markdown_table
-from rgns.endstate.model import load_model
-from rgns.metrics import MetricSettings
+from rgns.engines.metrics import MetricSettings
 from rgns.scene.realizations import CaseInputs
+from rgns.surrogates.endstate.data import read_end_states, simulate_end_states
+from rgns.surrogates.endstate.evaluate import agreement_table, markdown_table
+from rgns.surrogates.endstate.model import load_model
 from rgns.trajectories import frame_count
 
 REPO = Path(__file__).resolve().parent.parent

@@ -21,11 +21,11 @@ import numpy as np
 import torch
 
 from rgns.config import load_config
-from rgns.endstate.data import read_end_states, simulate_end_states
-from rgns.metrics import MetricSettings, crest_x, runout_metrics
+from rgns.engines.metrics import MetricSettings, crest_x, runout_metrics
 from rgns.scene.realizations import CaseInputs, draw_scene
+from rgns.surrogates.endstate.data import read_end_states, simulate_end_states
+from rgns.surrogates.validation import r_squared
 from rgns.trajectories import frame_count
-from rgns.validation import r_squared
 
 REPO = Path(__file__).resolve().parent.parent
 METRICS = ("runout_m", "volume_m2", "influence_m")

@@ -2,7 +2,7 @@
 
     python benchmarks/scarp_resolution.py --realizations 64
 
-I is measured from the rear-most point displaced ≥ 1 m (``rgns.metrics.influence_distance``), so
+I is measured from the rear-most point displaced ≥ 1 m (``rgns.engines.metrics.influence_distance``), so
 it moves in steps of the point spacing (0.5 m at the default mesh). Where I varies by less than
 one spacing between realizations (case 4: standard deviation 0.48 m over 64), a point moved 0.93 m by MPM
 and 1.07 m by the model changes I by a whole spacing. Here the default-seed realizations of each
@@ -29,13 +29,13 @@ import numpy as np
 import torch
 
 from rgns.config import load_config
-from rgns.endstate.model import load_model
 from rgns.engines.batch import simulate_mpm
-from rgns.metrics import DISPLACEMENT_THRESHOLD_M, crest_x, influence_distance
-from rgns.montecarlo import simulate_endstate
+from rgns.engines.metrics import DISPLACEMENT_THRESHOLD_M, crest_x, influence_distance
+from rgns.montecarlo.runs import simulate_endstate
 from rgns.scene.realizations import CaseInputs, draw_realization
+from rgns.surrogates.endstate.model import load_model
+from rgns.surrogates.validation import r_squared
 from rgns.trajectories import frame_count
-from rgns.validation import r_squared
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -17,7 +17,7 @@ import torch
 from suite import METRICS, OUT, REPO, errors, run_gns_route
 
 from rgns.config import load_config
-from rgns.montecarlo import rollout_settings
+from rgns.montecarlo.runs import rollout_settings
 
 SETTINGS = [  # (context_hops, rest_displacement_m, rest_velocity_m_per_frame)
     (1, 0.1, 5e-4),

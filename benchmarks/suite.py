@@ -6,7 +6,7 @@
     python benchmarks/suite.py --endstate            # add the shipped end-state surrogate to it
 
 Every route simulates the same default-config case-1 Monte Carlo realizations (drawn exactly as
-``rgns.montecarlo`` draws them; the random field on a fixed 1 m grid so a finer mesh samples the
+``rgns.montecarlo.runs`` draws them; the random field on a fixed 1 m grid so a finer mesh samples the
 same field) for the full 10 s, and is measured against one reference: the embedded MPM at 0.5 m
 cells and cfl 0.1 with early stop off. Error of a metric (R, V, I) = mean absolute difference
 from the reference over the realizations, in % of the reference's range over them; "error" is the
@@ -52,14 +52,11 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
-from rgns.endstate.model import load_model  # noqa: E402
 from rgns.engines.batch import simulate_mpm
 from rgns.engines.cbgeo.runner import MPMDiverged, run_cbgeo, trajectory_from_cbgeo  # noqa: E402
 from rgns.engines.cbgeo.writer import write_case  # noqa: E402
-from rgns.gns.rollout import RolloutSettings  # noqa: E402
-from rgns.gns.train import load_simulator, settings_from_config, train  # noqa: E402
-from rgns.metrics import MetricSettings  # noqa: E402
-from rgns.montecarlo import (
+from rgns.engines.metrics import MetricSettings  # noqa: E402
+from rgns.montecarlo.runs import (
     Simulated,
     factor_of_safety,
     measure,
@@ -67,9 +64,12 @@ from rgns.montecarlo import (
     simulate_endstate,  # noqa: E402
     simulate_gns,
 )
+from rgns.montecarlo.screening import ScreenSettings  # noqa: E402
 from rgns.scene.realizations import CaseInputs, draw_realization  # noqa: E402
-from rgns.screening import ScreenSettings  # noqa: E402
-from rgns.shipped import MODELS  # noqa: E402
+from rgns.surrogates.endstate.model import load_model  # noqa: E402
+from rgns.surrogates.gns.rollout import RolloutSettings  # noqa: E402
+from rgns.surrogates.gns.train import load_simulator, settings_from_config, train  # noqa: E402
+from rgns.surrogates.shipped import MODELS  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
@@ -88,7 +88,7 @@ def case_inputs(config: dict, case: str, cell_size_m: float, friction_mean_deg: 
 
 
 def measured(batch, simulated, config: dict) -> list[dict]:
-    """Each realization's Monte Carlo table row, measured as rgns.montecarlo measures it."""
+    """Each realization's Monte Carlo table row, measured as rgns.montecarlo.runs measures it."""
     mpm = config["mpm"]
     return [
         measure(

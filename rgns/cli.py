@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from rgns.config import ConfigError, load_config
 from rgns.config_reference import config_reference
-from rgns.sets import set_size
+from rgns.scene.sets import set_size
 
 if TYPE_CHECKING:
     from rgns.scene.case import Case
@@ -105,7 +105,7 @@ def _mpm(args: argparse.Namespace) -> int:
 def _train(args: argparse.Namespace) -> int:
     import logging
 
-    from rgns.gns.train import init_distributed_from_environment, settings_from_config, train, warmup_frames
+    from rgns.surrogates.gns.train import init_distributed_from_environment, settings_from_config, train, warmup_frames
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = load_config(args.config)
@@ -117,7 +117,7 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _model_card(args: argparse.Namespace) -> int:
-    from rgns.shipped import render_card
+    from rgns.surrogates.shipped import render_card
 
     card = json.loads(args.card.read_text())
     validation = args.validation.read_text() if args.validation else None

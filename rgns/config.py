@@ -233,7 +233,11 @@ def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
 def _shipped_errors(config: dict[str, Any]) -> list[str]:
     """With gns.model: shipped and the GNS in use (the Monte Carlo's simulator, or the one validated beside an MPM
     Monte Carlo), the keys the shipped model is tied to must be its own (said before any job runs)."""
-    from rgns.shipped import ShippedModelError, check_serves, read_card  # local: torch-free, but only needed here
+    from rgns.surrogates.shipped import (  # local: torch-free, but only needed here
+        ShippedModelError,
+        check_serves,
+        read_card,
+    )
 
     if config["gns"]["model"] != "shipped" or config["montecarlo"]["simulator"] == "endstate":
         return []
@@ -246,8 +250,8 @@ def _shipped_errors(config: dict[str, Any]) -> list[str]:
 
 def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
     """With the shipped end-state surrogate as the Monte Carlo's simulator, the keys it is tied to must be its own."""
-    from rgns.endstate.card import check_serves, outside_ranges  # local: only needed here
-    from rgns.shipped import MODELS, ShippedModelError, read_card
+    from rgns.surrogates.endstate.card import check_serves, outside_ranges  # local: only needed here
+    from rgns.surrogates.shipped import MODELS, ShippedModelError, read_card
 
     model = config["endstate"]["model"]
     if config["montecarlo"]["simulator"] != "endstate" or model == "train":
@@ -270,8 +274,8 @@ def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
 
 def _shipped_tuned_errors(config: dict[str, Any]) -> list[str]:
     """With the shipped tuned end-state surrogate as the correction's control, its cases and keys must be this config's."""
-    from rgns.endstate.tuned_card import check_tuned_serves  # local: only needed here
-    from rgns.shipped import MODELS, ShippedModelError, read_card
+    from rgns.surrogates.endstate.tuned_card import check_tuned_serves  # local: only needed here
+    from rgns.surrogates.shipped import MODELS, ShippedModelError, read_card
 
     fidelity = config["montecarlo"]["fidelity"]
     if not fidelity["paired"] or fidelity["cheap"] != "tuned" or config["endstate"]["tuned"]["model"] != "shipped":

@@ -59,7 +59,7 @@ def _read_packed(path: Path) -> None:
 
 
 def _read_end_states(path: Path) -> None:
-    from rgns.endstate.data import read_end_states
+    from rgns.surrogates.endstate.data import read_end_states
 
     read_end_states([path])
 

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 from rgns.scene.fields import FIELD_KEYS
 from rgns.scene.geometry import DRAW_KEYS
 from rgns.scene.realizations import CaseInputs, accurate_case_inputs, mean_vertices
-from rgns.sets import realization_group, realization_ids
+from rgns.scene.sets import realization_group, realization_ids
 from rgns.trajectories import frame_count
 
 SETS = list(config["sets"])

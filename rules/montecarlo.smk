@@ -177,7 +177,7 @@ rule mc_coarse_collect:
 
 checkpoint paired_plan:
     """With montecarlo.fidelity.target_half_width_m: how many realizations to pair, in whole chunks, from
-    the pilot pairs' spread and correlation and the cheap Monte Carlo (rgns.multifidelity_outputs.plan_pairs)."""
+    the pilot pairs' spread and correlation and the cheap Monte Carlo (rgns.fidelity.outputs.plan_pairs)."""
     input:
         realizations=CHEAP_TABLE,
         pilot=mc_paired_pilot_chunks,
@@ -213,7 +213,7 @@ rule mc_paired_collect:
 
 rule multifidelity:
     """A case's exceedance curves, zoning and means corrected towards the accurate MPM (control variates),
-    and with montecarlo.fidelity.mesh_order carried to the converged mesh (rgns/mesh_extrapolation.py)."""
+    and with montecarlo.fidelity.mesh_order carried to the converged mesh (rgns/fidelity/mesh_extrapolation.py)."""
     input:
         realizations=CHEAP_TABLE,
         simulator="results/mc/{case}/realizations.csv",

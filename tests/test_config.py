@@ -8,7 +8,7 @@ import pytest
 from conftest import REPO
 
 from rgns.config import ConfigError, load_yaml, validate_config
-from rgns.sets import realization_group, set_size
+from rgns.scene.sets import realization_group, set_size
 
 
 def test_default_and_paper_configs_validate(default_config, paper_config):

@@ -1,9 +1,11 @@
-"""The package's import direction: the scene comes first and imports no later stage; the embedded
-engine takes the scene's realization and imports no file format."""
+"""The package's import direction: its stage packages, in the order data flows, import no later one
+(the scene first, imports none); the embedded engine takes the scene's realization and imports no
+file format; outside the stages only shared infrastructure."""
 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 from conftest import REPO
@@ -11,18 +13,55 @@ from conftest import REPO
 PACKAGE = REPO / "rgns"
 
 
-def rgns_imports(folder: Path) -> dict[str, set[str]]:
+STAGES = ("scene", "engines", "surrogates", "montecarlo", "hazard", "fidelity", "report")
+INFRASTRUCTURE = (
+    "atomic",
+    "cli",
+    "config",
+    "config_reference",
+    "integrity",
+    "logsetup",
+    "provenance",
+    "tables",
+    "trajectories",
+)
+
+
+def rgns_imports(folder: Path, pattern: str = "*.py") -> dict[str, set[str]]:
     """Every rgns module each module of ``folder`` imports (top level and inside functions)."""
     imports = {}
-    for path in sorted(folder.glob("*.py")):
+    for path in sorted(folder.glob(pattern)):
         found = set()
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("rgns"):
                 found.add(node.module)
             elif isinstance(node, ast.Import):
                 found |= {alias.name for alias in node.names if alias.name.startswith("rgns")}
-        imports[path.name] = found
+        imports[path.relative_to(folder).as_posix()] = found
     return imports
+
+
+def test_rgns_holds_the_stages_in_the_order_data_flows_and_only_infrastructure_beside_them():
+    packages = sorted(p.name for p in PACKAGE.iterdir() if (p / "__init__.py").exists())
+    assert packages == sorted([*STAGES, "models"])
+    flat = sorted(p.stem for p in PACKAGE.glob("*.py") if p.stem != "__init__")
+    assert flat == sorted(INFRASTRUCTURE)
+
+
+def test_no_stage_imports_a_later_one():
+    later = {}
+    for position, stage in enumerate(STAGES):
+        for module, found in rgns_imports(PACKAGE / stage, "**/*.py").items():
+            ahead = sorted(m for m in found if m.split(".")[1] in STAGES[position + 1 :])
+            if ahead:
+                later[f"{stage}/{module}"] = ahead
+    assert later == {}
+
+
+def test_every_stage_package_says_what_enters_and_leaves():
+    for stage in STAGES:
+        doc = ast.get_docstring(ast.parse((PACKAGE / stage / "__init__.py").read_text())) or ""
+        assert re.search(r"\bin\b", doc, re.I) and re.search(r"\bout\b", doc, re.I), stage
 
 
 def test_the_scene_imports_no_later_stage():

@@ -14,13 +14,13 @@ from conftest import REPO, TINY_CONFIG
 from workflow_helpers import scheduled, snakemake, write_config
 
 from rgns.config import load_config, load_yaml
-from rgns.endstate.data import read_end_states
 from rgns.engines.batch import simulate_mpm
-from rgns.metrics import MetricSettings, crest_x, runout_metrics
+from rgns.engines.metrics import MetricSettings, crest_x, runout_metrics
 from rgns.scene.fields import read_field
 from rgns.scene.geometry import read_scene
 from rgns.scene.realizations import CaseInputs, draw_realization
-from rgns.sets import format_id
+from rgns.scene.sets import format_id
+from rgns.surrogates.endstate.data import read_end_states
 from rgns.tables import read_csv
 from rgns.trajectories import frame_count, read_packed, read_trajectory
 

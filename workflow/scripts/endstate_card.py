@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from rgns.endstate.card import make_card, render_card
 from rgns.logsetup import log_to_file
+from rgns.surrogates.endstate.card import make_card, render_card
 
 log = log_to_file(snakemake.log[0])
 history = pd.read_csv(snakemake.input.history).to_dict("records")

@@ -2,9 +2,9 @@
 
 import torch
 
-from rgns.endstate.data import simulate_end_states, write_end_states
 from rgns.logsetup import log_to_file
 from rgns.scene.realizations import CaseInputs
+from rgns.surrogates.endstate.data import simulate_end_states, write_end_states
 
 log = log_to_file(snakemake.log[0])
 torch.set_num_threads(snakemake.threads)

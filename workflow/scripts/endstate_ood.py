@@ -5,12 +5,12 @@ from pathlib import Path
 
 import torch
 
-from rgns.endstate.data import read_end_states
-from rgns.endstate.evaluate import agreement_table, markdown_table
-from rgns.endstate.model import load_model
+from rgns.engines.metrics import MetricSettings
 from rgns.logsetup import log_to_file
-from rgns.metrics import MetricSettings
 from rgns.scene.realizations import CaseInputs
+from rgns.surrogates.endstate.data import read_end_states
+from rgns.surrogates.endstate.evaluate import agreement_table, markdown_table
+from rgns.surrogates.endstate.model import load_model
 
 log = log_to_file(snakemake.log[0], "rgns")
 torch.set_num_threads(snakemake.threads)

@@ -2,8 +2,8 @@
 
 from pathlib import Path
 
-from rgns.gns_export import export_gns
 from rgns.logsetup import log_to_file
+from rgns.surrogates.gns_export import export_gns
 
 log = log_to_file(snakemake.log[0])
 export_gns(

@@ -8,12 +8,12 @@ from dataclasses import replace
 
 import torch
 
-from rgns.endstate.model import load_model
-from rgns.gate import SURROGATE_NAMES, GateError, simulator_for
-from rgns.gns.train import load_simulator
 from rgns.logsetup import log_to_file
-from rgns.montecarlo import SURROGATES, CaseInputs, RunSettings, run_realizations
+from rgns.montecarlo.runs import SURROGATES, CaseInputs, RunSettings, run_realizations
 from rgns.scene.realizations import FINISHED
+from rgns.surrogates.endstate.model import load_model
+from rgns.surrogates.gate import SURROGATE_NAMES, GateError, simulator_for
+from rgns.surrogates.gns.train import load_simulator
 from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])

@@ -1,7 +1,7 @@
 """Rule mc_collect: one table of every Monte Carlo realization of a case, in index order."""
 
 from rgns.logsetup import log_to_file
-from rgns.montecarlo import collect_chunks, collect_whole_chunks
+from rgns.montecarlo.runs import collect_chunks, collect_whole_chunks
 from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])

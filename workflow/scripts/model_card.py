@@ -4,7 +4,7 @@ import json
 from pathlib import Path
 
 from rgns.logsetup import log_to_file
-from rgns.shipped import make_card, render_card
+from rgns.surrogates.shipped import make_card, render_card
 
 log = log_to_file(snakemake.log[0])
 evaluation = json.loads(Path(snakemake.input.evaluation).read_text())

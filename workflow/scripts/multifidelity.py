@@ -1,10 +1,10 @@
-"""Rule multifidelity: a case's hazard corrected towards the accurate MPM (rgns.multifidelity_outputs)."""
+"""Rule multifidelity: a case's hazard corrected towards the accurate MPM (rgns.fidelity.outputs)."""
 
 import json
 from pathlib import Path
 
+from rgns.fidelity.outputs import costs, write_multifidelity
 from rgns.logsetup import log_to_file
-from rgns.multifidelity_outputs import costs, write_multifidelity
 from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])

@@ -1,11 +1,11 @@
 """Checkpoint paired_plan: how many realizations of a case to pair for the target half-width
-(rgns.multifidelity_outputs.plan_pairs)."""
+(rgns.fidelity.outputs.plan_pairs)."""
 
 import json
 
+from rgns.fidelity.outputs import plan_pairs
 from rgns.logsetup import log_to_file
-from rgns.montecarlo import collect_whole_chunks
-from rgns.multifidelity_outputs import plan_pairs
+from rgns.montecarlo.runs import collect_whole_chunks
 from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])

@@ -3,8 +3,8 @@
 from pathlib import Path
 
 from rgns.engines.chunk import trajectory_name
+from rgns.engines.paraview import write_vtu_series
 from rgns.logsetup import log_to_file
-from rgns.paraview import write_vtu_series
 from rgns.trajectories import read_trajectory
 
 log = log_to_file(snakemake.log[0])

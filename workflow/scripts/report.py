@@ -5,7 +5,7 @@ from pathlib import Path
 
 from rgns.logsetup import log_to_file
 from rgns.provenance import provenance
-from rgns.report import build_report
+from rgns.report.page import build_report
 from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])

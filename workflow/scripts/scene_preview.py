@@ -1,7 +1,7 @@
 """Rule scene_preview: picture the first realizations of a set."""
 
 from rgns.logsetup import log_to_file
-from rgns.plots import plot_scenes
+from rgns.report.plots import plot_scenes
 from rgns.scene.fields import read_field
 from rgns.scene.geometry import read_scene
 

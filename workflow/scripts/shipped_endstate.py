@@ -4,9 +4,9 @@ import json
 import shutil
 from pathlib import Path
 
-from rgns.endstate.card import check_serves
 from rgns.logsetup import log_to_file
-from rgns.shipped import read_card
+from rgns.surrogates.endstate.card import check_serves
+from rgns.surrogates.shipped import read_card
 
 log = log_to_file(snakemake.log[0])
 card = read_card(Path(snakemake.input.card).parent, Path(snakemake.input.card).name)

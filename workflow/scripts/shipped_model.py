@@ -3,7 +3,7 @@
 from pathlib import Path
 
 from rgns.logsetup import log_to_file
-from rgns.shipped import install
+from rgns.surrogates.shipped import install
 
 log = log_to_file(snakemake.log[0])
 card = install(

@@ -3,11 +3,11 @@
 import json
 from pathlib import Path
 
-from rgns.gns.evaluate import evaluate
-from rgns.gns.rollout import RolloutSettings, warmup_frame_count
-from rgns.gns.train import load_simulator, settings_from_config, train
 from rgns.logsetup import log_to_file
-from rgns.plots import plot_learning_curve
+from rgns.report.plots import plot_learning_curve
+from rgns.surrogates.gns.evaluate import evaluate
+from rgns.surrogates.gns.rollout import RolloutSettings, warmup_frame_count
+from rgns.surrogates.gns.train import load_simulator, settings_from_config, train
 
 log = log_to_file(snakemake.log[0])
 params = snakemake.params

@@ -3,11 +3,11 @@
 import json
 from pathlib import Path
 
-from rgns.endstate.card import evaluation_of, plot_learning_curve
-from rgns.endstate.data import read_end_states
-from rgns.endstate.lattice import Lattice
-from rgns.endstate.train import EndStateTrainSettings, train, write_history
 from rgns.logsetup import log_to_file
+from rgns.surrogates.endstate.card import evaluation_of, plot_learning_curve
+from rgns.surrogates.endstate.data import read_end_states
+from rgns.surrogates.endstate.lattice import Lattice
+from rgns.surrogates.endstate.train import EndStateTrainSettings, train, write_history
 
 log = log_to_file(snakemake.log[0], "rgns")
 params = snakemake.params

@@ -5,13 +5,13 @@ from pathlib import Path
 
 import torch
 
-from rgns.endstate.card import plot_learning_curve
-from rgns.endstate.data import read_end_states
-from rgns.endstate.model import load_model
-from rgns.endstate.train import examples, held_out_loss
-from rgns.endstate.tuned_card import make_tuned_card, render_tuned_card
-from rgns.endstate.tuning import TuneSettings, fine_tune, tuning_agreement
 from rgns.logsetup import log_to_file
+from rgns.surrogates.endstate.card import plot_learning_curve
+from rgns.surrogates.endstate.data import read_end_states
+from rgns.surrogates.endstate.model import load_model
+from rgns.surrogates.endstate.train import examples, held_out_loss
+from rgns.surrogates.endstate.tuned_card import make_tuned_card, render_tuned_card
+from rgns.surrogates.endstate.tuning import TuneSettings, fine_tune, tuning_agreement
 
 log = log_to_file(snakemake.log[0], "rgns")
 torch.set_num_threads(snakemake.threads)

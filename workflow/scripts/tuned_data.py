@@ -2,10 +2,10 @@
 
 import torch
 
-from rgns.endstate.data import write_end_states
-from rgns.endstate.tuning import simulate_tuning_states
 from rgns.logsetup import log_to_file
 from rgns.scene.realizations import CaseInputs
+from rgns.surrogates.endstate.data import write_end_states
+from rgns.surrogates.endstate.tuning import simulate_tuning_states
 
 log = log_to_file(snakemake.log[0])
 torch.set_num_threads(snakemake.threads)

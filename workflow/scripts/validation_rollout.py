@@ -4,13 +4,13 @@ realization of one test case, paired."""
 import numpy as np
 import torch
 
-from rgns.endstate.model import load_model
-from rgns.gns.train import load_simulator
+from rgns.engines.metrics import MetricSettings
 from rgns.logsetup import log_to_file
-from rgns.metrics import MetricSettings
-from rgns.montecarlo import rollout_settings
-from rgns.pairing import pair_case, pair_end_states
+from rgns.montecarlo.runs import rollout_settings
 from rgns.scene.geometry import read_scene
+from rgns.surrogates.endstate.model import load_model
+from rgns.surrogates.gns.train import load_simulator
+from rgns.surrogates.pairing import pair_case, pair_end_states
 from rgns.tables import write_csv
 from rgns.trajectories import read_packed
 

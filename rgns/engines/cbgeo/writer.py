@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from rgns.engines.cbgeo.case import FRICTION_FILE, INPUT_JSON, META_FILE
-from rgns.geostatic import geostatic_stresses
+from rgns.engines.cbgeo.geostatic import geostatic_stresses
 from rgns.scene.case import Case
 from rgns.scene.geometry import Scene
 

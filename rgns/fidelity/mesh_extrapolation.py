@@ -1,0 +1,222 @@
+"""The corrected hazard carried from the accurate MPM's mesh to the converged one.
+
+The multi-fidelity correction (rgns.fidelity.outputs) is unbiased with respect to the MPM at
+``high_cell_size_m``, which is not the converged answer. With the same paired realizations run once
+more at the Monte Carlo's own mesh (``coarse_cell_size_m``, r = coarse / high times coarser) and the
+measured order p of the engine's mesh convergence (``mesh_order``: per quantity [low, value, high], from
+benchmarks/mesh_levels.py; null where no asymptotic range was measured), Richardson extrapolation adds what the accurate mesh still misses,
+(f_high − f_coarse) / (r^p − 1), over the pairs:
+
+* means of R, V and I: the nested levels [accurate, coarse, cheap] by :func:`rgns.fidelity.multilevel.extrapolated`,
+  whose interval holds the sampling, every weight and the order's interval;
+* the runout and influence exceeded with probability P: the corrected distance plus the step of the
+  paired quantiles; the interval adds the corrected curve's band to the step's bootstrap envelope over
+  the order's interval (their ends summed: wider than either alone, never narrower than the truth's);
+* the zoning: the profile recomputed with the fronts and back scarps moved by their mean steps, at the
+  order's value and at its interval's ends.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from rgns.fidelity.multifidelity import (
+    RESAMPLES,
+    MultiFidelityError,
+    corrected_affected_probability,
+    distance_at,
+    expanded_level,
+)
+from rgns.fidelity.multilevel import extrapolated, multilevel, richardson_step
+from rgns.hazard.statistics import zone_levels, zones
+from rgns.scene.realizations import FINISHED
+
+MEANS = ("runout_m", "volume_m2", "influence_m")
+ENDS = ("front_x_m", "rear_x_m")
+
+
+def nested_levels(
+    low: pd.DataFrame, high: pd.DataFrame, coarse: pd.DataFrame
+) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """The accurate and coarse rows of the realizations both finished (in the accurate table's order),
+    and the cheap rows with those first: nested levels for the multilevel estimator."""
+    low, coarse = (t[t["status"].isin(FINISHED)].set_index("index") for t in (low, coarse))
+    high = high[high["status"].isin(FINISHED) & high["index"].isin(coarse.index) & high["index"].isin(low.index)]
+    if len(high) < 2:
+        raise MultiFidelityError(
+            f"{len(high)} paired realizations finished at both meshes and by the cheap route; at least 2 are needed"
+        )
+    first = high["index"].tolist()
+    rest = [i for i in low.index if i not in set(first)]
+    return high.reset_index(drop=True), coarse.loc[first].reset_index(), low.loc[first + rest].reset_index()
+
+
+def _quantile_steps(
+    high: np.ndarray,
+    coarse: np.ndarray,
+    probabilities: list[float],
+    ratio: float,
+    orders: np.ndarray,
+    confidence: float,
+    seed: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Richardson step of each paired quantile (exceeded with probability P) at each order [orders, P]:
+    the point value and the ends of a paired percentile bootstrap."""
+    levels = 1.0 - np.asarray(probabilities, dtype=float)
+
+    def statistic(h: np.ndarray, c: np.ndarray, axis: int = -1) -> np.ndarray:
+        qh = np.moveaxis(np.quantile(h, levels, axis=axis), 0, -1)  # [..., P]
+        qc = np.moveaxis(np.quantile(c, levels, axis=axis), 0, -1)
+        return np.moveaxis(
+            richardson_step(qh[..., None, :], qc[..., None, :], ratio, orders[:, None]), (-2, -1), (0, 1)
+        )
+
+    point = statistic(high, coarse)
+    boot = stats.bootstrap(
+        (high, coarse),
+        statistic,
+        paired=True,
+        vectorized=True,
+        n_resamples=RESAMPLES,
+        confidence_level=expanded_level(confidence, len(high)),
+        method="percentile",
+        random_state=np.random.default_rng(seed),
+    )
+    low, high_end = boot.confidence_interval
+    return point, np.minimum(np.asarray(low), point), np.maximum(np.asarray(high_end), point)
+
+
+def _orders(settings: dict[str, Any]) -> dict[str, np.ndarray | None]:
+    """Each quantity's order [value, low, high] from ``mesh_order`` (None: not established, not extrapolated)."""
+    orders: dict[str, np.ndarray | None] = {}
+    for key in MEANS:
+        given = (settings["mesh_order"] or {}).get(key)
+        if given is None:
+            orders[key] = None
+            continue
+        low_order, order, high_order = (float(v) for v in given)
+        if not 0.0 < low_order <= order <= high_order:
+            raise MultiFidelityError(
+                f"montecarlo.fidelity.mesh_order.{key} {list(given)}: expected 0 < low ≤ value ≤ high"
+            )
+        orders[key] = np.array([order, low_order, high_order])
+    return orders
+
+
+def converged(
+    low: pd.DataFrame,
+    high: pd.DataFrame,
+    coarse: pd.DataFrame,
+    settings: dict[str, Any],
+    corrected: dict[str, Any],
+    seed: int = 0,
+) -> dict[str, Any]:
+    """The means, exceedance distances and zoning at the converged mesh, each with its chain: the corrected
+    (accurate-mesh) value, the mesh step at the order's value and interval, the converged value and interval.
+    A quantity without an order (``mesh_order.<key>`` null: no asymptotic range was measured) keeps the
+    accurate mesh's value, marked so."""
+    ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
+    if ratio <= 1.0:
+        raise MultiFidelityError(
+            f"mesh.cell_size_m ({settings['coarse_cell_size_m']}) must be coarser than "
+            f"montecarlo.fidelity.high_cell_size_m ({settings['high_cell_size_m']}) to extrapolate"
+        )
+    orders = _orders(settings)
+    high, coarse, low = nested_levels(low, high, coarse)
+    confidence = settings["confidence"]
+    record: dict[str, Any] = {
+        "order": {key: None if o is None else [o[1], o[0], o[2]] for key, o in orders.items()},
+        "ratio": ratio,
+        "n_pairs": len(high),
+        "coarse_cell_size_m": settings["coarse_cell_size_m"],
+        "means": {},
+        "distances": {},
+    }
+    for key, order in orders.items():
+        levels = [t[[key]].to_numpy(float) for t in (high, coarse, low)]
+        if order is None:
+            finest = multilevel(levels, confidence, seed=seed)
+            step, step_range, value, lower, upper = None, None, finest.estimate[0], finest.lower[0], finest.upper[0]
+        else:
+            estimate = extrapolated(levels, ratio, order[0], (order[1], order[2]), confidence, seed=seed)
+            finest = estimate.finest
+            step = float(estimate.mesh_error[0])
+            step_range = [float(estimate.mesh_error_range[0][0]), float(estimate.mesh_error_range[1][0])]
+            value, lower, upper = estimate.estimate[0], estimate.lower[0], estimate.upper[0]
+        record["means"][key] = {
+            "cheap_mean": float(finest.level_means[2][0]),
+            "coarse_mean": float(finest.level_means[1][0]),
+            "accurate": float(finest.estimate[0]),
+            "accurate_lower": float(finest.lower[0]),
+            "accurate_upper": float(finest.upper[0]),
+            "mesh_step": step,
+            "mesh_step_range": step_range,
+            "estimate": float(value),
+            "lower": float(lower),
+            "upper": float(upper),
+        }
+    for key, curve in corrected["exceedance"].items():
+        key_order = orders.get(key)
+        if key_order is None:
+            continue
+        probabilities = [float(p) for p in curve["distances"]]
+        point, lower, upper = _quantile_steps(
+            high[key].to_numpy(float), coarse[key].to_numpy(float), probabilities, ratio, key_order, confidence, seed
+        )
+        record["distances"][key] = {}
+        for j, (p, distances) in enumerate(zip(probabilities, curve["distances"].values())):
+            accurate = distances["corrected"]
+            band = (distance_at(curve["d_m"], curve["lower"], p), distance_at(curve["d_m"], curve["upper"], p))
+            entry = {
+                "accurate": accurate,
+                "accurate_band": list(band),
+                "mesh_step": float(point[0, j]),
+                "mesh_step_range": [float(point[:, j].min()), float(point[:, j].max())],
+            }
+            entry["estimate"] = None if accurate is None else accurate + entry["mesh_step"]
+            entry["lower"] = None if band[0] is None else band[0] + float(lower[:, j].min())
+            entry["upper"] = None if band[1] is None else band[1] + float(upper[:, j].max())
+            record["distances"][key][str(p)] = entry
+    record["zoning"] = _zoning(low, high, coarse, settings, ratio, orders)
+    return record
+
+
+def _zoning(
+    low: pd.DataFrame,
+    high: pd.DataFrame,
+    coarse: pd.DataFrame,
+    settings: dict[str, Any],
+    ratio: float,
+    orders: dict[str, np.ndarray | None],
+) -> dict[str, Any]:
+    """P(x affected) with every front moved by the mean Richardson step of the fronts (at the runout's
+    order) and every back scarp by the back scarps' (at the influence distance's order); an end whose
+    quantity has no order stays where the accurate mesh put it."""
+    x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
+    ends_high, ends_coarse, ends_low = (t[list(ENDS)].to_numpy(float) for t in (high, coarse, low))
+    steps = np.zeros((3, 2))
+    for column, key in enumerate(("runout_m", "influence_m")):
+        key_order = orders[key]
+        if key_order is not None:
+            steps[:, column] = richardson_step(
+                ends_high[:, column].mean(), ends_coarse[:, column].mean(), ratio, key_order
+            )
+    profiles = [corrected_affected_probability(ends_high + step, ends_low + step, x_m) for step in steps]
+    thresholds = settings["thresholds"]
+    return {
+        "x_m": x_m.tolist(),
+        "probability": profiles[0].tolist(),
+        "front_step_m": float(steps[0, 0]),
+        "rear_step_m": float(steps[0, 1]),
+        "front_step_range_m": [float(steps[:, 0].min()), float(steps[:, 0].max())],
+        "rear_step_range_m": [float(steps[:, 1].min()), float(steps[:, 1].max())],
+        "zones": [asdict(zone) for zone in zones(x_m, zone_levels(profiles[0], thresholds))],
+        "zones_at_order_ends": [
+            [asdict(zone) for zone in zones(x_m, zone_levels(p, thresholds))] for p in profiles[1:]
+        ],
+    }

@@ -1,0 +1,297 @@
+"""Rule multifidelity: a case's exceedance curves and zoning corrected towards the accurate MPM.
+
+The Monte Carlo table (the cheap route: its simulator after the gate) and the paired table (the
+first realizations again, by the MPM at the accurate mesh) are combined for every quantity that
+is a mean: the means of R, V and I by :func:`rgns.fidelity.multifidelity.control_variate`; P(R > d) and
+P(I > d) at every distance d, and P(x affected) = P(front ≥ x) − P(back scarp > x) at every point
+of the zoning profile, by :func:`rgns.fidelity.multifidelity.regression_control_variate` (the cheap route's
+predicted exceedance as control variate: an indicator 1[l > d] correlates poorly with 1[h > d]
+near d). Exceedance curves are rearranged to be non-increasing; P(x affected) is the difference of
+its two rearranged terms, so the corrected zones rise to one maximum and fall (no islands). Costs
+come from the Snakemake benchmark files of the chunks.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from rgns.fidelity.mesh_extrapolation import converged  # noqa: E402
+from rgns.fidelity.multifidelity import (
+    ControlVariateEstimate,
+    MultiFidelityError,
+    allocate,
+    control_variate,  # noqa: E402
+    corrected_affected_probability,
+    distance_at,
+    optimal_ratio,
+    pairs_for_half_width,
+    predicted_half_width,
+    rearranged,
+    regression_control_variate,
+    speedup,
+)
+from rgns.hazard.statistics import ZONE_LEVELS, exceedance_distances, zone_levels, zones  # noqa: E402
+from rgns.scene.realizations import FINISHED  # noqa: E402
+
+METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
+CURVES = ("runout_m", "influence_m")
+DISTANCE_STEP_M = 0.25
+
+
+def paired_rows(low: pd.DataFrame, high: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The cheap table reordered with the paired realizations first, and the paired accurate rows
+    in the same order; a realization not finished by either route is left out of both."""
+    low = low[low["status"].isin(FINISHED)].set_index("index")
+    high = high[high["status"].isin(FINISHED)].set_index("index")
+    both = [i for i in high.index if i in low.index]
+    if len(both) < 2:
+        raise MultiFidelityError(f"{len(both)} realizations finished at both fidelities; at least 2 are needed")
+    rest = [i for i in low.index if i not in set(both)]
+    return low.loc[both + rest].reset_index(), high.loc[both].reset_index()
+
+
+def costs(low_benchmarks: list[str], n_low: int, high_benchmarks: list[str], n_high: int) -> dict[str, float]:
+    """Seconds per realization of each route, from Snakemake benchmark files (column ``s``)."""
+
+    def seconds(paths: list[str]) -> float:
+        return float(sum(pd.read_csv(path, sep="\t")["s"].sum() for path in paths))
+
+    return {"low_s": seconds(low_benchmarks) / n_low, "high_s": seconds(high_benchmarks) / n_high}
+
+
+def _estimate_record(estimate: ControlVariateEstimate) -> dict[str, Any]:
+    return {
+        key: np.asarray(getattr(estimate, key)).tolist()
+        for key in ("estimate", "lower", "upper", "high_mean", "low_mean", "weight", "correlation", "bias")
+    }
+
+
+def correct(
+    low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float], seed: int = 0
+) -> dict[str, Any]:
+    """Every corrected quantity of one case, with the uncorrected ones beside it."""
+    low, high = paired_rows(low, high)
+    n, confidence = len(high), settings["confidence"]
+    record: dict[str, Any] = {
+        "n_low": len(low),
+        "n_paired": n,
+        "high_cell_size_m": settings["high_cell_size_m"],
+        "cheap_route": settings.get("cheap_route", "the Monte Carlo's simulator"),
+        "confidence": confidence,
+        "cost": cost,
+        "means": {},
+        "exceedance": {},
+    }
+    for key in METRICS:
+        estimate = control_variate(high[[key]].to_numpy(float), low[[key]].to_numpy(float), confidence, seed=seed)
+        record["means"][key] = {name: value[0] for name, value in _estimate_record(estimate).items()}
+    for key in CURVES:
+        top = max(low[key].max(), high[key].max())
+        d_m = np.arange(0.0, top + DISTANCE_STEP_M, DISTANCE_STEP_M)
+        estimate = regression_control_variate(
+            high[key].to_numpy(float), low[key].to_numpy(float), d_m, confidence=confidence, seed=seed
+        )
+        corrected, uncorrected = rearranged(estimate.estimate), estimate.low_mean  # low_mean: over all N
+        record["exceedance"][key] = {
+            "d_m": d_m.tolist(),
+            "uncorrected": uncorrected.tolist(),
+            "corrected": corrected.tolist(),
+            "lower": rearranged(estimate.lower).tolist(),
+            "upper": rearranged(estimate.upper).tolist(),
+            "paired_high": estimate.high_mean.tolist(),
+            "distances": {
+                str(p): {"uncorrected": distance_at(d_m, uncorrected, p), "corrected": distance_at(d_m, corrected, p)}
+                for p in settings["exceedance_probabilities"]
+            },
+        }
+    x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
+    ends_high, ends_low = (
+        high[["front_x_m", "rear_x_m"]].to_numpy(float),
+        low[["front_x_m", "rear_x_m"]].to_numpy(float),
+    )
+    estimate = regression_control_variate(
+        ends_high, ends_low, x_m, signs=[1.0, -1.0], inclusive=[True, False], confidence=confidence, seed=seed
+    )
+    probability, uncorrected = corrected_affected_probability(ends_high, ends_low, x_m), estimate.low_mean
+    thresholds = settings["thresholds"]
+    record["zoning"] = {
+        "x_m": x_m.tolist(),
+        "uncorrected": uncorrected.tolist(),
+        "corrected": probability.tolist(),
+        # the band: the joint estimate's bootstrap interval, widened where needed to hold the rearranged estimate
+        "lower": np.minimum(np.clip(estimate.lower, 0, 1), probability).tolist(),
+        "upper": np.maximum(np.clip(estimate.upper, 0, 1), probability).tolist(),
+        "zones_uncorrected": [asdict(zone) for zone in zones(x_m, zone_levels(uncorrected, thresholds))],
+        "zones_corrected": [asdict(zone) for zone in zones(x_m, zone_levels(probability, thresholds))],
+    }
+    runout = record["means"]["runout_m"]
+    rho = float(np.nan_to_num(runout["correlation"]))
+    record["allocation"] = {
+        "correlation_runout": rho,
+        "optimal_ratio": optimal_ratio(cost["high_s"], cost["low_s"], rho),
+        "speedup_at_equal_error": speedup(cost["high_s"], cost["low_s"], rho),
+    }
+    if settings.get("target_half_width_m"):
+        plan = allocate(
+            cost["high_s"],
+            cost["low_s"],
+            rho,
+            float(high["runout_m"].std(ddof=1)),
+            settings["target_half_width_m"],
+            confidence,
+        )
+        record["allocation"]["target"] = {"half_width_m": settings["target_half_width_m"], **asdict(plan)}
+    return record
+
+
+def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
+    """Exceedance of R and I and the zoning probability: cheap route, corrected (with interval), paired accurate."""
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4))
+    simulator_differs = not record.get("cheap_is_simulator", True)
+    for ax, key in zip(axes, CURVES):
+        curve = record["exceedance"][key]
+        d = curve["d_m"]
+        ax.step(d, curve["uncorrected"], where="post", color="C0", label=f"cheap route (n = {record['n_low']})")
+        ax.step(d, curve["corrected"], where="post", color="C3", label="multi-fidelity corrected")
+        ax.fill_between(
+            d,
+            curve["lower"],
+            curve["upper"],
+            step="post",
+            color="C3",
+            alpha=0.2,
+            label=f"{record['confidence']:.0%} interval",
+        )
+        if curve.get("simulator") is not None and simulator_differs:
+            ax.step(
+                d,
+                curve["simulator"],
+                where="post",
+                color="0.5",
+                linestyle="--",
+                label="Monte Carlo's simulator (its map)",
+            )
+        ax.step(
+            d,
+            curve["paired_high"],
+            where="post",
+            color="k",
+            linestyle=":",
+            label=f"accurate MPM alone (n = {record['n_paired']})",
+        )
+        drawn = [
+            (float(p), e)
+            for p, e in record.get("converged", {}).get("distances", {}).get(key, {}).items()
+            if None not in (e["estimate"], e["lower"], e["upper"])
+        ]
+        for k, (p, entry) in enumerate(drawn):
+            ax.errorbar(
+                [entry["estimate"]],
+                [p],
+                xerr=[[entry["estimate"] - entry["lower"]], [entry["upper"] - entry["estimate"]]],
+                fmt="D",
+                color="C2",
+                capsize=3,
+                label=None if k else "converged mesh: exceeded with P",
+            )
+        ax.set_xlabel(f"{METRICS[key]} (m)")
+        ax.set_ylabel("exceedance probability")
+        ax.set_ylim(-0.02, 1.02)
+    axes[0].legend(fontsize=7)
+    zoning = record["zoning"]
+    ax = axes[2]
+    ax.plot(zoning["x_m"], zoning["uncorrected"], color="C0", label="cheap route")
+    ax.plot(zoning["x_m"], zoning["corrected"], color="C3", label="corrected")
+    ax.fill_between(zoning["x_m"], zoning["lower"], zoning["upper"], color="C3", alpha=0.2)
+    if "converged" in record:
+        ax.plot(zoning["x_m"], record["converged"]["zoning"]["probability"], color="C2", label="converged mesh")
+        ax.legend(fontsize=7)
+    ax.set_xlabel("x along the section (m)")
+    ax.set_ylabel("P(affected)")
+    ax.set_ylim(-0.02, 1.02)
+    fig.suptitle(
+        f"{case}: multi-fidelity correction towards the MPM at {record['high_cell_size_m']:g} m cells"
+        + (", and carried to the converged mesh" if "converged" in record else "")
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def plan_pairs(low: pd.DataFrame, pilot: pd.DataFrame, settings: dict[str, Any]) -> dict[str, Any]:
+    """How many realizations to pair for ``target_half_width_m`` on the mean runout, in whole chunks: from
+    the pilot pairs' std and correlation and the N cheap runs (:func:`pairs_for_half_width`), at least
+    the pilot and at most ``max_paired`` (``realizations`` when null) rounded up to a whole chunk."""
+    low_rows, high_rows = paired_rows(low, pilot)
+    high_r = high_rows["runout_m"].to_numpy(float)
+    low_r = low_rows["runout_m"].to_numpy(float)[: len(high_r)]
+    std = float(high_r.std(ddof=1))
+    rho = float(np.corrcoef(high_r, low_r)[0, 1]) if std > 0 and low_r.std() > 0 else 0.0
+    target, confidence = settings["target_half_width_m"], settings["confidence"]
+    needed = pairs_for_half_width(std, rho, len(low_rows), target, confidence)
+    realizations, chunk = settings["realizations"], settings["chunk_size"]
+    cap = settings["max_paired"] or realizations
+    wanted = min(max(len(pilot), math.ceil(needed) if math.isfinite(needed) else cap), cap)
+    chunks = -(-wanted // chunk)
+    n_paired = min(chunks * chunk, realizations)
+    half_width = predicted_half_width(std, rho, n_paired, len(low_rows), confidence)
+    return {
+        "target_half_width_m": target,
+        "pilot": len(pilot),
+        "n_low": len(low_rows),
+        "std_m": std,
+        "correlation": rho,
+        "needed": needed if math.isfinite(needed) else None,
+        "cap": cap,
+        "chunks": chunks,
+        "n_paired": n_paired,
+        "predicted_half_width_m": half_width,
+        "reached": bool(half_width <= target + 1e-12),
+    }
+
+
+def write_multifidelity(
+    low: pd.DataFrame,
+    high: pd.DataFrame,
+    settings: dict[str, Any],
+    cost: dict[str, float],
+    outputs: dict[str, str],
+    case: str,
+    plan: dict[str, Any] | None = None,
+    simulator: pd.DataFrame | None = None,
+    coarse: pd.DataFrame | None = None,
+) -> dict[str, Any]:
+    """Correct, then write the JSON (with the paired-run ``plan`` where one chose the pairs, the Monte
+    Carlo's own means and curves: its ``simulator`` table where that is not the cheap route, and with the
+    pairs at the Monte Carlo's mesh, ``coarse``, the estimates at the converged mesh) and the figure."""
+    record = correct(low, high, settings, cost)
+    if coarse is not None and settings.get("mesh_order"):
+        record["converged"] = converged(low, high, coarse, settings, record)
+    record["levels"] = list(ZONE_LEVELS)
+    own = simulator if simulator is not None else low
+    record["cheap_is_simulator"] = simulator is None
+    finished = own[own["status"].isin(FINISHED)]
+    record["simulator_means"] = {key: float(finished[key].mean()) for key in METRICS}
+    for key, curve in record["exceedance"].items():  # the Monte Carlo's own curve, what its map is drawn from
+        values = finished[key].to_numpy(float)
+        curve["simulator"] = [float(np.mean(values > d)) for d in curve["d_m"]]
+        # its distances by the exceedance table's own estimator (rgns.hazard.statistics), so the two tables agree
+        own_distances = exceedance_distances(values, [float(p) for p in curve["distances"]], confidence=0.95)
+        for distances, own_distance in zip(curve["distances"].values(), own_distances):
+            distances["simulator"] = own_distance.distance_m
+    if plan is not None:
+        record["plan"] = plan
+    Path(outputs["json"]).write_text(json.dumps(record, indent=1, default=float) + "\n")
+    plot(record, outputs["figure"], case)
+    return record

@@ -1,0 +1,129 @@
+"""The corrected hazard carried to the converged mesh: known answers of a mesh error that is exactly C h^p."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rgns.fidelity.mesh_extrapolation import converged
+from rgns.fidelity.multifidelity import MultiFidelityError
+from rgns.fidelity.outputs import correct, write_multifidelity
+
+ORDER = 1.3
+SETTINGS = {
+    "confidence": 0.95,
+    "high_cell_size_m": 0.5,
+    "coarse_cell_size_m": 1.0,
+    "mesh_order": {"runout_m": [1.0, ORDER, 1.6], "volume_m2": [1.0, ORDER, 1.6], "influence_m": [1.0, ORDER, 1.6]},
+    "exceedance_probabilities": [0.5, 0.1],
+    "domain": {"length_m": 80.0},
+    "resolution_m": 0.5,
+    "thresholds": [0.9, 0.5, 0.1, 0.01],
+}
+COST = {"low_s": 0.01, "high_s": 20.0}
+
+
+def table(runout: np.ndarray) -> pd.DataFrame:
+    """A Monte Carlo table: toe at 30 m, the front R beyond it, the back scarp 0.4 R behind the crest at 20 m."""
+    return pd.DataFrame(
+        {
+            "index": np.arange(runout.size),
+            "status": "ok",
+            "runout_m": runout,
+            "volume_m2": 10 * runout,
+            "influence_m": 0.4 * runout,
+            "front_x_m": 30.0 + runout,
+            "rear_x_m": 20.0 - 0.4 * runout,
+        }
+    )
+
+
+def at_mesh(converged_runout: np.ndarray, h: float, short_m: float = 2.0) -> np.ndarray:
+    """The runout a mesh of cell h gives: the converged one, short by short_m (h / 1 m)^p."""
+    return converged_runout - short_m * h**ORDER
+
+
+def chain(
+    seed: int, n_low: int = 400, n_pairs: int = 24
+) -> tuple[np.ndarray, pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    truth = np.random.default_rng(seed).gamma(6.0, 1.5, n_low)
+    cheap = at_mesh(truth, 1.0) + np.random.default_rng(seed + 1).normal(0.0, 0.3, n_low)  # a noisy 1 m surrogate
+    return truth, table(cheap), table(at_mesh(truth[:n_pairs], 0.5)), table(at_mesh(truth[:n_pairs], 1.0))
+
+
+def extrapolate(low: pd.DataFrame, high: pd.DataFrame, coarse: pd.DataFrame, settings: dict = SETTINGS) -> dict:
+    return converged(low, high, coarse, settings, correct(low, high, settings, COST))
+
+
+def test_an_error_of_exactly_c_h_to_the_p_is_removed_from_means_distances_and_zones():
+    truth, low, high, coarse = chain(0)
+    record = extrapolate(low, high, coarse)
+    runout = record["means"]["runout_m"]
+    step = 2.0 * 0.5**ORDER  # what the 0.5 m mesh misses
+    assert runout["mesh_step"] == pytest.approx(step, rel=1e-9)
+    assert runout["estimate"] - runout["accurate"] == pytest.approx(step, rel=1e-9)
+    assert runout["lower"] <= truth.mean() <= runout["upper"]
+    assert not runout["accurate_lower"] <= truth.mean() <= runout["accurate_upper"]  # 0.5 m alone misses it
+    assert runout["mesh_step_range"][0] < step < runout["mesh_step_range"][1]  # the order's interval
+    assert record["means"]["volume_m2"]["mesh_step"] == pytest.approx(10 * step, rel=1e-9)
+    for p, entry in record["distances"]["runout_m"].items():
+        assert entry["mesh_step"] == pytest.approx(step, rel=1e-9)  # every quantile moves by the same step
+        assert entry["lower"] <= np.quantile(truth, 1 - float(p)) <= entry["upper"]
+    zoning = record["zoning"]
+    assert zoning["front_step_m"] == pytest.approx(step) and zoning["rear_step_m"] == pytest.approx(-0.4 * step)
+    assert record["distances"]["influence_m"]["0.5"]["mesh_step"] == pytest.approx(0.4 * step)
+    x, accurate = np.array(zoning["x_m"]), np.array(correct(low, high, SETTINGS, COST)["zoning"]["corrected"])
+    reach = {
+        name: x[np.nonzero(np.array(p) >= 0.1)[0][-1]]
+        for name, p in (("converged", zoning["probability"]), ("accurate", accurate))
+    }
+    assert reach["converged"] - reach["accurate"] == pytest.approx(step, abs=0.5)  # the profile's resolution
+
+
+def test_the_converged_interval_covers_the_truth_over_replicates():
+    """95 % intervals over 200 replicates cover the converged mean within 3 standard errors of 95 %."""
+    covered = []
+    for seed in range(200):
+        truth, low, high, coarse = chain(1000 + seed, n_low=200, n_pairs=16)
+        runout = converged(low, high, coarse, SETTINGS, {"exceedance": {}})["means"]["runout_m"]
+        covered.append(runout["lower"] <= 6.0 * 1.5 <= runout["upper"])  # the gamma's mean
+    se = np.sqrt(0.95 * 0.05 / len(covered))
+    assert np.mean(covered) >= 0.95 - 3 * se
+
+
+def test_without_the_order_or_the_coarse_pairs_nothing_is_extrapolated(tmp_path):
+    _, low, high, coarse = chain(2, n_low=60, n_pairs=8)
+    outputs = {"json": str(tmp_path / "m.json"), "figure": str(tmp_path / "m.png")}
+    assert "converged" in write_multifidelity(low, high, SETTINGS, COST, outputs, "case1", coarse=coarse)
+    assert "converged" not in write_multifidelity(low, high, SETTINGS, COST, outputs, "case1")
+    assert "converged" not in write_multifidelity(
+        low, high, SETTINGS | {"mesh_order": None}, COST, outputs, "case1", coarse=coarse
+    )
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"coarse_cell_size_m": 0.5}, "must be coarser than montecarlo.fidelity.high_cell_size_m"),
+        ({"mesh_order": {"runout_m": [1.5, 1.3, 1.6]}}, "montecarlo.fidelity.mesh_order.runout_m [1.5, 1.3, 1.6]"),
+    ],
+)
+def test_bad_settings_are_named(change, message):
+    _, low, high, coarse = chain(3)
+    with pytest.raises(MultiFidelityError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        extrapolate(low, high, coarse, SETTINGS | change)
+
+
+def test_pairs_unfinished_at_the_coarse_mesh_leave_the_chain():
+    _, low, high, coarse = chain(4)
+    coarse.loc[[0, 5], "status"] = "diverged: non-finite"
+    assert extrapolate(low, high, coarse)["n_pairs"] == 22
+
+
+def test_a_quantity_without_an_order_keeps_the_accurate_meshs_value_and_its_ends_stay():
+    _, low, high, coarse = chain(5, n_low=60, n_pairs=8)
+    settings = SETTINGS | {"mesh_order": {"runout_m": [1.0, ORDER, 1.6], "volume_m2": None, "influence_m": None}}
+    record = converged(low, high, coarse, settings, correct(low, high, settings, COST))
+    volume = record["means"]["volume_m2"]
+    assert volume["mesh_step"] is None and volume["estimate"] == volume["accurate"]
+    assert set(record["distances"]) == {"runout_m"} and record["zoning"]["rear_step_m"] == 0.0
+    assert record["means"]["runout_m"]["mesh_step"] == pytest.approx(2.0 * 0.5**ORDER)

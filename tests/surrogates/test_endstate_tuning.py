@@ -1,0 +1,105 @@
+"""Tuning the end-state surrogate to the accurate MPM: coarse-graining the fine runs, the fine-tune,
+and what the shipped tuned model serves (its accuracy as a control variate:
+benchmarks/hifi_surrogate.py and every run's multi-fidelity report)."""
+
+from __future__ import annotations
+
+import copy
+from collections import defaultdict
+
+import numpy as np
+import pytest
+import torch
+from test_endstate import LATTICE, SLOPE, synthetic_states
+
+from rgns.scene.geometry import seed_particles
+from rgns.surrogates.endstate.model import EndStateModel, load_model
+from rgns.surrogates.endstate.train import examples, held_out_loss, normalization_of
+from rgns.surrogates.endstate.tuned_card import check_tuned_serves
+from rgns.surrogates.endstate.tuning import TuneSettings, coarse_grained, fine_tune
+from rgns.surrogates.shipped import MODELS, ShippedModelError, read_card
+
+
+def fine_points(coarse: np.ndarray, spacing: float) -> np.ndarray:
+    """The four points a mesh twice as fine seeds in each coarse point's pixel."""
+    quarter = spacing / 4.0
+    return np.concatenate([coarse + [dx, dy] for dx in (-quarter, quarter) for dy in (-quarter, quarter)])
+
+
+def test_a_coarse_point_moves_by_the_mean_displacement_of_the_fine_points_in_its_pixel():
+    """Against a dictionary implementation, and the total displacement (the mass-weighted mean motion of
+    equal-volume points) is conserved from the fine points to the coarse ones."""
+    coarse, _ = seed_particles(SLOPE, 1.0, 2)
+    fine = fine_points(coarse, 0.5)
+    rng = np.random.default_rng(3)
+    moved = fine + rng.normal(0.0, 2.0, fine.shape)
+    result = coarse_grained(coarse, fine, moved, 0.5)
+    sums = defaultdict(list)
+    for start, end in zip(fine, moved):
+        sums[tuple(np.floor(start / 0.5).astype(int))].append(end - start)
+    expected = np.array([p + np.mean(sums[tuple(np.floor(p / 0.5).astype(int))], axis=0) for p in coarse])
+    np.testing.assert_allclose(result, expected, atol=1e-12)
+    np.testing.assert_allclose((result - coarse).sum(axis=0) * 4, (moved - fine).sum(axis=0), atol=1e-9)
+
+
+def test_a_coarse_point_without_fine_points_stays_where_it_is():
+    coarse = np.array([[0.25, 0.25], [0.75, 0.25]])
+    fine = fine_points(coarse[:1], 0.5)
+    result = coarse_grained(coarse, fine, fine + [1.0, 0.0], 0.5)
+    np.testing.assert_allclose(result, [[1.25, 0.25], [0.75, 0.25]])
+
+
+def test_fine_tuning_moves_a_trained_model_to_a_shifted_rule():
+    """A model of one rule, tuned on 64 slopes of a rule with twice the slide: its held-out loss on the new
+    rule falls by most of the way, in a fraction of the first training's steps."""
+    torch.manual_seed(0)
+    old = synthetic_states(96, seed=1)
+    model = EndStateModel(LATTICE, normalization_of(old), (8, 16, 32))
+    first = examples(model, old)
+    fine_tune(model, first, first, TuneSettings(steps=300, learning_rate=3e-3, batch_size=8))
+    shifted = [copy.copy(s) for s in synthetic_states(80, seed=2)]
+    for state in shifted:
+        state.final = state.initial + 2.0 * (state.final - state.initial)
+    train, held = examples(model, shifted[:64]), examples(model, shifted[64:])
+    before, mean = held_out_loss(model, held)
+    history = fine_tune(model, train, held, TuneSettings(steps=100, learning_rate=1e-3, batch_size=8))
+    assert [row["step"] for row in history] == [100]
+    assert history[-1]["valid_loss"] < 0.3 * before and history[-1]["valid_loss"] < 0.2 * mean
+
+
+@pytest.fixture(scope="module")
+def tuned_card() -> dict:
+    return read_card(MODELS, "endstate_tuned_card.json")
+
+
+def test_the_shipped_tuned_model_serves_the_default_config_and_refuses_other_cases_and_meshes(
+    tuned_card, default_config
+):
+    check_tuned_serves(tuned_card, default_config)
+    other = copy.deepcopy(default_config)
+    other["montecarlo"]["cases"] = ["case1", "case2"]
+    with pytest.raises(ShippedModelError, match="montecarlo.cases has case2, it was tuned on case1"):
+        check_tuned_serves(tuned_card, other)
+    other = copy.deepcopy(default_config)
+    other["montecarlo"]["fidelity"]["high_cell_size_m"] = 0.25
+    with pytest.raises(
+        ShippedModelError, match="montecarlo.fidelity.high_cell_size_m is 0.25, the model was trained at 0.5"
+    ):
+        check_tuned_serves(tuned_card, other)
+    other = copy.deepcopy(default_config)
+    other["sets"]["case1"][0]["friction_std_deg"] = 8.0
+    with pytest.raises(ShippedModelError, match="sets.case1 is"):
+        check_tuned_serves(tuned_card, other)
+
+
+def test_the_shipped_tuned_model_agrees_with_its_held_out_accurate_runs_better_than_before(tuned_card):
+    """Its card, made by the pipeline: on the held-out 0.5 m runs (coarse-grained) the tuned model's R²
+    for R and V is at least 0.95 and above the untuned model's, and its loss is a fraction of the untuned."""
+    rows = {(row["model"], row["metric"]): row for row in tuned_card["agreement"]}
+    assert len(tuned_card["agreement"]) == 6 and rows[("after", "runout")]["n"] >= 16
+    for metric in ("runout", "volume"):
+        assert rows[("after", metric)]["r2"] >= 0.95
+        assert rows[("after", metric)]["r2"] > rows[("before", metric)]["r2"]
+    assert tuned_card["evaluation"]["valid_loss"] < 0.2 * tuned_card["before"]["valid_loss"]
+    model = load_model(MODELS / "endstate_tuned.pt")
+    assert model.lattice == load_model(MODELS / "endstate.pt").lattice
