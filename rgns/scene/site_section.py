@@ -177,5 +177,5 @@ def site_file(path: str) -> str:
     given = Path(path)
     if given.is_absolute() or given.exists():
         return path
-    from_repo = Path(__file__).resolve().parent.parent / given
+    from_repo = Path(__file__).resolve().parents[2] / given
     return str(from_repo) if from_repo.exists() else path

@@ -19,7 +19,7 @@ from workflow_helpers import scheduled, snakemake, write_config
 from rgns.config import ConfigError, load_yaml, validate_config
 from rgns.hazard.site_gis import exceedance_by_chainage, write_site_gis
 from rgns.scene.geometry import build_scene
-from rgns.scene.site_section import Section, SiteError, cumulative_length, read_section, sample_dem
+from rgns.scene.site_section import Section, SiteError, cumulative_length, read_section, sample_dem, site_file
 
 WEST, NORTH, PIXEL = 1000.0, 2060.0, 1.0  # raster origin (m) and pixel size of the test DEMs
 CRS = "EPSG:32632"
@@ -422,3 +422,10 @@ def test_a_derived_domain_within_the_end_state_surrogates_bounds_is_served(tmp_p
     config["gns"]["model"] = "shipped"  # no GNS training sets; the shipped GNS is not used beside the end-state route
     assert validate_config(config)["domain"] == {"length_m": 22.0, "height_m": 7.0}
 
+
+def test_a_relative_site_file_not_found_from_the_working_directory_is_taken_from_the_repository(tmp_path, monkeypatch):
+    """A run with --directory elsewhere still finds the example site's DEM the config names relative to the repo."""
+    monkeypatch.chdir(tmp_path)
+    found = Path(site_file("config/sites/hillside/dem.tif"))
+    assert found.is_absolute() and found.exists() and found.samefile(REPO / "config" / "sites" / "hillside" / "dem.tif")
+    assert site_file("config/sites/no_such.tif") == "config/sites/no_such.tif"
