@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import stats
 
 RESAMPLES = 2000
@@ -210,8 +211,8 @@ def regression_control_variate(
     high: np.ndarray,
     low: np.ndarray,
     thresholds: np.ndarray,
-    signs: np.ndarray | None = None,
-    inclusive: np.ndarray | None = None,
+    signs: ArrayLike | None = None,
+    inclusive: ArrayLike | None = None,
     confidence: float = 0.95,
     resamples: int = RESAMPLES,
     seed: int = 0,
