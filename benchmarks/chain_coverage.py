@@ -12,15 +12,15 @@ those realizations, so every answer is known:
 * the mean volume and influence, which the chain does not extrapolate (no order measured): their 0.5 m means.
 
 A replicate draws N cheap realizations with replacement, pairs the first n (their 0.5 m and 1 m runs), and
-estimates as rgns.mesh_extrapolation does: rgns.multilevel.extrapolated on the nested levels [0.5 m, 1 m,
-cheap] for the runout, rgns.multilevel.multilevel for the others. Coverage is the share of replicates whose
+estimates as rgns.fidelity.mesh_extrapolation does: rgns.fidelity.multilevel.extrapolated on the nested levels [0.5 m, 1 m,
+cheap] for the runout, rgns.fidelity.multilevel.multilevel for the others. Coverage is the share of replicates whose
 interval holds the known answer, with its binomial standard error (SE).
 
 Allocation: for candidate (n pairs, N cheap) the estimate's standard deviation over replicates (the same
 estimator, no bootstrap) and its cost from measured seconds per realization (mesh_levels' runs; the cheap
 route timed here). The work-variance product cost × sd² is what the cost to reach a given sampling error
 scales with; the estimator's interval also widens at few pairs (Hesterberg's expanded level for n pairs,
-rgns.multifidelity.expanded_level), so candidates are ranked by cost × half-width², half-width = z'(n) sd.
+rgns.fidelity.multifidelity.expanded_level), so candidates are ranked by cost × half-width², half-width = z'(n) sd.
 Plain Monte Carlo for the same converged mean runs every realization at 0.25 m and 0.5 m (the pair its own
 Richardson step needs); for P(R > r50) at 0.25 m alone.
 """
@@ -34,16 +34,19 @@ from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import torch
-from mesh_levels import METRICS, run_settings, saved  # noqa: E402  (benchmarks/ is the script's own folder)
+from mesh_levels import METRICS, run_file, run_settings, saved  # noqa: E402  (benchmarks/ is the script's own folder)
 from scipy import stats
 
 from rgns.config import load_config
-from rgns.endstate.model import load_model
-from rgns.montecarlo import CaseInputs, run_realizations
-from rgns.multifidelity import expanded_level
-from rgns.multilevel import extrapolated, mfmc_estimate, multilevel, richardson_step
+from rgns.fidelity.mesh_extrapolation import converged
+from rgns.fidelity.multifidelity import distance_at, expanded_level
+from rgns.fidelity.multilevel import extrapolated, mfmc_estimate, multilevel, richardson_step
+from rgns.fidelity.outputs import DISTANCE_STEP_M, correct
+from rgns.montecarlo.runs import CaseInputs, run_realizations
 from rgns.scene.realizations import accurate_case_inputs
+from rgns.surrogates.endstate.model import load_model
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
@@ -52,8 +55,8 @@ PAIRS = [4, 8, 12, 16, 24, 32, 48]
 CHEAP = [256, 1024, 4096]
 
 
-def cheap_values(config: dict, case: str, indices: np.ndarray) -> tuple[dict[str, np.ndarray], float]:
-    """The tuned end-state surrogate's R, V, I on the realizations, and its seconds per realization."""
+def cheap_table(config: dict, case: str, indices: np.ndarray) -> tuple[pd.DataFrame, float]:
+    """The tuned end-state surrogate's rows on the realizations, and its seconds per realization."""
     torch.set_num_threads(1)
     settings = run_settings(config)
     settings = replace(settings, simulator="endstate")
@@ -62,7 +65,12 @@ def cheap_values(config: dict, case: str, indices: np.ndarray) -> tuple[dict[str
     start = time.perf_counter()
     table = run_realizations(inputs, [int(i) for i in indices], settings, model)
     seconds = (time.perf_counter() - start) / len(indices)
-    return {key: table[key].to_numpy(float) for key in METRICS}, seconds
+    return table, seconds
+
+
+def mpm_table(case: str, cell: float, indices: np.ndarray) -> pd.DataFrame:
+    """mesh_levels' saved MPM rows of the realizations at ``cell``."""
+    return pd.DataFrame([json.loads(run_file(case, cell, int(i)).read_text()) for i in indices])
 
 
 def known_answers(values: dict[str, np.ndarray], order: float) -> dict[str, float]:
@@ -120,6 +128,63 @@ def coverage(values: dict, cheap: dict, orders: dict, n_pairs: int, n_cheap: int
             "mean_error": float(np.mean(errors[name])),
             "error_se": float(np.std(errors[name], ddof=1) / np.sqrt(replicates)),
         }
+    return result
+
+
+def drawn(table: pd.DataFrame, picks: np.ndarray) -> pd.DataFrame:
+    """The rows ``picks`` of a level's table as realizations 0 … len(picks) - 1 (a drawn row is a new one)."""
+    return table.iloc[picks].assign(index=np.arange(len(picks))).reset_index(drop=True)
+
+
+def distance_answers(tables: dict, probabilities: list[float], order: float) -> dict[str, dict[str, float]]:
+    """Per probability the population's runout exceeded with it: the direct reference (0.25 m quantile plus the
+    Richardson step of the 0.5 → 0.25 m quantiles) and the chain's own target in this world (the 0.5 m
+    exceedance curve's distance on the pipeline's grid plus the step of the 1 → 0.5 m quantiles)."""
+    fine, half, coarse = (tables[h]["runout_m"].to_numpy(float) for h in (0.25, 0.5, 1.0))
+    d_m = np.arange(0.0, half.max() + 2 * DISTANCE_STEP_M, DISTANCE_STEP_M)
+    answers = {}
+    for p in probabilities:
+        q = {h: float(np.quantile(v, 1.0 - p)) for h, v in ((0.25, fine), (0.5, half), (1.0, coarse))}
+        curve_distance = distance_at(d_m, (half[:, None] > d_m).mean(axis=0), p)
+        answers[str(p)] = {
+            "direct": q[0.25] + float(richardson_step(q[0.25], q[0.5], 2.0, order)),
+            "chain_target": curve_distance + float(richardson_step(q[0.5], q[1.0], 2.0, order)),
+        }
+    return answers
+
+
+def distance_coverage(
+    tables: dict, settings: dict, cost: dict, n_pairs: int, n_cheap: int, replicates: int, seed: int
+) -> dict:
+    """The runout exceeded with each probability as the pipeline estimates it (rgns.fidelity.outputs.correct,
+    then rgns.fidelity.mesh_extrapolation.converged) over resampled replicates: coverage of both answers."""
+    probabilities = [p for p in settings["exceedance_probabilities"] if p >= 0.1]
+    order = settings["mesh_order"]["runout_m"][1]
+    answers = distance_answers(tables, probabilities, order)
+    rng = np.random.default_rng(seed)
+    found: dict[str, list] = {str(p): [] for p in probabilities}
+    levels = (("cheap", n_cheap), (0.5, n_pairs), (1.0, n_pairs))
+    for replicate in range(replicates):
+        picks = rng.integers(0, len(tables["cheap"]), n_cheap)
+
+        low, high, coarse = (drawn(tables[level], picks[:count]) for level, count in levels)
+        record = correct(low, high, settings, cost, seed=replicate)
+        distances = converged(low, high, coarse, settings, record, seed=replicate)["distances"]["runout_m"]
+        for p in found:
+            entry = distances[p]
+            found[p].append((entry["estimate"], entry["lower"], entry["upper"]))
+        if (replicate + 1) % 20 == 0:
+            print(f"distances: {replicate + 1} of {replicates} replicates", flush=True)
+    result = {}
+    for p, rows in found.items():
+        estimates = np.array([[np.nan if v is None else v for v in row] for row in rows], dtype=float)
+        row = {"replicates": replicates, "bounded": int(np.isfinite(estimates).all(axis=1).sum())}
+        for name, answer in answers[p].items():
+            inside = (estimates[:, 1] <= answer) & (answer <= estimates[:, 2])
+            row[name] = {"answer": answer, "coverage": float(inside.mean())}
+        row["half_width"] = float(np.nanmean(estimates[:, 2] - estimates[:, 1]) / 2.0)
+        row["mean_estimate"] = float(np.nanmean(estimates[:, 0]))
+        result[p] = row
     return result
 
 
@@ -214,6 +279,27 @@ def write(result: dict, path_md: Path) -> None:
         "Sampling only: the runout's interval at the order's point value (the resampling world's answer uses that "
         "value, so the order's interval, which the report adds, only widens it here).",
         "",
+        f"## The runout exceeded with P: {result['distances'][next(iter(result['distances']))]['replicates']} "
+        "replicates through the pipeline's own estimators",
+        "",
+        "Each replicate's distance as the report gives it (`rgns.fidelity.outputs.correct`, then "
+        "`rgns.fidelity.mesh_extrapolation.converged`: the corrected exceedance curve's distance plus the paired quantiles' "
+        "step, the interval their bands summed over the order's range). Answers: the direct reference (0.25 m "
+        "quantile plus its own Richardson step) and the chain's own target in this world (the 0.5 m curve's distance "
+        "on the pipeline's 0.25 m grid plus the 1 → 0.5 m quantile step); they differ by the Richardson step's "
+        "model error on a quantile of 32 values.",
+        "",
+        "| P | mean estimate | mean half-width | direct reference | covered | chain's target | covered |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for p, row in result["distances"].items():
+        lines.append(
+            f"| {p} | {row['mean_estimate']:.2f} | {row['half_width']:.2f} | {row['direct']['answer']:.2f} | "
+            f"{row['direct']['coverage']:.3f} | {row['chain_target']['answer']:.2f} | "
+            f"{row['chain_target']['coverage']:.3f} |"
+        )
+    lines += [
+        "",
         "## Allocation from measured costs and correlations",
         "",
         f"Seconds per realization: cheap {s['cheap']:.3f} (timed here, one thread, without a chunk's start-up), "
@@ -250,20 +336,36 @@ def write(result: dict, path_md: Path) -> None:
     path_md.write_text("\n".join(lines))
 
 
+def pipeline_settings(config: dict) -> dict:
+    """The settings rule multifidelity passes to the correction and the extrapolation (rules/common.smk)."""
+    hazard = config["hazard"]
+    return config["montecarlo"]["fidelity"] | {
+        "confidence": hazard["confidence"],
+        "exceedance_probabilities": hazard["exceedance_probabilities"],
+        "thresholds": hazard["zoning_thresholds"],
+        "resolution_m": hazard["zoning_resolution_m"],
+        "domain": config["domain"],
+        "coarse_cell_size_m": config["mesh"]["cell_size_m"],
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--case", default="case1")
     parser.add_argument("--replicates", type=int, default=400)
+    parser.add_argument("--distance-replicates", type=int, default=200, help="~14 s each on one core")
     parser.add_argument("--sd-replicates", type=int, default=4000)
     parser.add_argument("--seed", type=int, default=20261125)
     args = parser.parse_args()
     config = load_config(REPO / "config" / "config.yaml")
-    fidelity = config["montecarlo"]["fidelity"]
-    order = fidelity["mesh_order"]["runout_m"]
-    orders = {"runout_m": order}
+    settings = pipeline_settings(config)
+    order = settings["mesh_order"]["runout_m"]
     indices, values, seconds = saved(args.case, CELLS)
-    cheap, seconds["cheap"] = cheap_values(config, args.case, indices)
-    n_pairs, n_cheap = int(fidelity["paired"]), int(config["montecarlo"]["realizations"])
+    tables = {h: mpm_table(args.case, h, indices) for h in CELLS}
+    tables["cheap"], seconds["cheap"] = cheap_table(config, args.case, indices)
+    cheap = {key: tables["cheap"][key].to_numpy(float) for key in METRICS}
+    n_pairs, n_cheap = int(settings["paired"]), int(config["montecarlo"]["realizations"])
+    cost = {"high_s": seconds[0.5], "low_s": seconds["cheap"]}
     result = {
         "population": len(indices),
         "order": order,
@@ -273,8 +375,9 @@ def main() -> None:
         "sd_replicates": args.sd_replicates,
         "seconds": {str(k): v for k, v in seconds.items()},
         "correlation": float(np.corrcoef(values["runout_m"][1], cheap["runout_m"])[0, 1]),
-        "coverage": coverage(values, cheap, orders, n_pairs, n_cheap, args.replicates, args.seed),
+        "coverage": coverage(values, cheap, {"runout_m": order}, n_pairs, n_cheap, args.replicates, args.seed),
         "allocation": allocation(values, cheap, seconds, order[1], args.sd_replicates, args.seed),
+        "distances": distance_coverage(tables, settings, cost, n_pairs, n_cheap, args.distance_replicates, args.seed),
     }
     (OUT / "chain_coverage.json").write_text(json.dumps(result, indent=1))
     write(result | {"seconds": seconds}, OUT / "chain_coverage.md")
