@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from rgns.report.page import Report, gate_section, provenance_line, routes
+from rgns.report.page import Report, _runout_line, gate_section, provenance_line, routes
 
 GATE = {
     "case1": {
@@ -72,3 +72,31 @@ def test_fewer_runs_than_made_is_a_warning_at_the_top(tmp_path):
         '<p class="note">case1: the hazard rests on 61 of 64 Monte Carlo realizations (3 did not finish '
         "and are left out).</p>",
     ]
+
+
+def runout_record(distances: list[str]) -> dict:
+    """A case's multifidelity record as rule multifidelity writes it, carried to the converged mesh."""
+    mean = {"estimate": 9.3, "lower": 9.0, "upper": 9.7, "low_mean": 8.7, "bias": -0.6, "correlation": 0.99}
+    step = {"mesh_step": 1.2, "mesh_step_range": [0.9, 1.9], "estimate": 10.5, "lower": 9.7, "upper": 11.9}
+    return {
+        "means": {"runout_m": mean},
+        "high_cell_size_m": 0.5,
+        "n_paired": 16,
+        "converged": {
+            "means": {"runout_m": step, "volume_m2": {"mesh_step": None}, "influence_m": {"mesh_step": None}},
+            "order": {"runout_m": [0.69, 0.94, 1.2]},
+            "n_pairs": 16,
+            "coarse_cell_size_m": 1.0,
+            "distances": {"runout_m": {p: {} for p in distances}},
+        },
+    }
+
+
+def test_the_headline_warns_that_a_tail_distances_interval_is_too_narrow_where_it_gives_one():
+    """The measured under-coverage of the P 0.1 distance's interval is said beside the headline, only
+    when the record carries such a distance."""
+    line, _ = _runout_line("case1", runout_record(["0.5", "0.1", "0.01"]))
+    assert "runout exceeded with probability 0.1 and 0.01 is likely too narrow" in line
+    assert "89.5%" in line and "chain_coverage.md" in line
+    line, _ = _runout_line("case1", runout_record(["0.5"]))
+    assert "too narrow" not in line
