@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import torch
-from mesh_levels import METRICS, run_file, run_settings, saved  # noqa: E402  (benchmarks/ is the script's own folder)
+from mesh_levels import METRICS, exceeded_with, reference, run_file, run_settings, saved  # noqa: E402  (benchmarks/ is the script's own folder)
 from scipy import stats
 
 from rgns.config import load_config
@@ -73,11 +73,10 @@ def mpm_table(case: str, cell: float, indices: np.ndarray) -> pd.DataFrame:
     return pd.DataFrame([json.loads(run_file(case, cell, int(i)).read_text()) for i in indices])
 
 
-def known_answers(values: dict[str, np.ndarray], order: float) -> dict[str, float]:
-    """The population's answers: converged runout (0.25 m + Richardson 0.5 → 0.25 m), 0.5 m V and I."""
-    runout = values["runout_m"].mean(axis=1)
+def known_answers(values: dict[str, np.ndarray], order: list[float]) -> dict[str, float]:
+    """The population's answers: converged runout (mesh_levels' direct reference), 0.5 m V and I."""
     return {
-        "runout_m": float(runout[2] + richardson_step(runout[2], runout[1], 2.0, order)),
+        "runout_m": reference(values["runout_m"], order)["value"],
         "volume_m2": float(values["volume_m2"][1].mean()),
         "influence_m": float(values["influence_m"][1].mean()),
     }
@@ -94,7 +93,7 @@ def coverage(values: dict, cheap: dict, orders: dict, n_pairs: int, n_cheap: int
     the order's interval for the runout), the mean half-width, the estimate's mean error."""
     rng = np.random.default_rng(seed)
     population = values["runout_m"].shape[1]
-    truth = known_answers(values, orders["runout_m"][1])
+    truth = known_answers(values, orders["runout_m"])
     hits: dict[str, list] = {key: [] for key in [*METRICS, "runout_m (sampling only)"]}
     widths: dict[str, list] = {key: [] for key in hits}
     errors: dict[str, list] = {key: [] for key in hits}
@@ -136,37 +135,38 @@ def drawn(table: pd.DataFrame, picks: np.ndarray) -> pd.DataFrame:
     return table.iloc[picks].assign(index=np.arange(len(picks))).reset_index(drop=True)
 
 
-def distance_answers(tables: dict, probabilities: list[float], order: float) -> dict[str, dict[str, float]]:
-    """Per probability the population's runout exceeded with it: the direct reference (0.25 m quantile plus the
-    Richardson step of the 0.5 → 0.25 m quantiles) and the chain's own target in this world (the 0.5 m
-    exceedance curve's distance on the pipeline's grid plus the step of the 1 → 0.5 m quantiles)."""
-    fine, half, coarse = (tables[h]["runout_m"].to_numpy(float) for h in (0.25, 0.5, 1.0))
+def distance_answers(
+    values: dict[str, np.ndarray], probabilities: list[float], order: list[float]
+) -> dict[str, dict[str, float]]:
+    """Per probability the population's runout exceeded with it: the direct reference (mesh_levels' on the
+    1 - P quantile) and the chain's own target in this world (the 0.5 m exceedance curve's distance on the
+    pipeline's grid plus the step of the 1 → 0.5 m quantiles)."""
+    coarse, half = values["runout_m"][0], values["runout_m"][1]
     d_m = np.arange(0.0, half.max() + 2 * DISTANCE_STEP_M, DISTANCE_STEP_M)
     answers = {}
     for p in probabilities:
-        q = {h: float(np.quantile(v, 1.0 - p)) for h, v in ((0.25, fine), (0.5, half), (1.0, coarse))}
+        quantile = exceeded_with(p)
         curve_distance = distance_at(d_m, (half[:, None] > d_m).mean(axis=0), p)
+        step = richardson_step(quantile(half, axis=-1), quantile(coarse, axis=-1), 2.0, order[1])
         answers[str(p)] = {
-            "direct": q[0.25] + float(richardson_step(q[0.25], q[0.5], 2.0, order)),
-            "chain_target": curve_distance + float(richardson_step(q[0.5], q[1.0], 2.0, order)),
+            "direct": reference(values["runout_m"], order, quantile)["value"],
+            "chain_target": curve_distance + float(step),
         }
     return answers
 
 
 def distance_coverage(
-    tables: dict, settings: dict, cost: dict, n_pairs: int, n_cheap: int, replicates: int, seed: int
+    tables: dict, values: dict, settings: dict, cost: dict, n_pairs: int, n_cheap: int, replicates: int, seed: int
 ) -> dict:
     """The runout exceeded with each probability as the pipeline estimates it (rgns.fidelity.outputs.correct,
     then rgns.fidelity.mesh_extrapolation.converged) over resampled replicates: coverage of both answers."""
     probabilities = [p for p in settings["exceedance_probabilities"] if p >= 0.1]
-    order = settings["mesh_order"]["runout_m"][1]
-    answers = distance_answers(tables, probabilities, order)
+    answers = distance_answers(values, probabilities, settings["mesh_order"]["runout_m"])
     rng = np.random.default_rng(seed)
     found: dict[str, list] = {str(p): [] for p in probabilities}
     levels = (("cheap", n_cheap), (0.5, n_pairs), (1.0, n_pairs))
     for replicate in range(replicates):
         picks = rng.integers(0, len(tables["cheap"]), n_cheap)
-
         low, high, coarse = (drawn(tables[level], picks[:count]) for level, count in levels)
         record = correct(low, high, settings, cost, seed=replicate)
         distances = converged(low, high, coarse, settings, record, seed=replicate)["distances"]["runout_m"]
@@ -377,7 +377,9 @@ def main() -> None:
         "correlation": float(np.corrcoef(values["runout_m"][1], cheap["runout_m"])[0, 1]),
         "coverage": coverage(values, cheap, {"runout_m": order}, n_pairs, n_cheap, args.replicates, args.seed),
         "allocation": allocation(values, cheap, seconds, order[1], args.sd_replicates, args.seed),
-        "distances": distance_coverage(tables, settings, cost, n_pairs, n_cheap, args.distance_replicates, args.seed),
+        "distances": distance_coverage(
+            tables, values, settings, cost, n_pairs, n_cheap, args.distance_replicates, args.seed
+        ),
     }
     (OUT / "chain_coverage.json").write_text(json.dumps(result, indent=1))
     write(result | {"seconds": seconds}, OUT / "chain_coverage.md")
