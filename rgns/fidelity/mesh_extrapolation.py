@@ -11,7 +11,8 @@ benchmarks/mesh_levels.py; null where no asymptotic range was measured), Richard
   whose interval holds the sampling, every weight and the order's interval;
 * the runout and influence exceeded with probability P: the corrected distance plus the step of the
   paired quantiles; the interval adds the corrected curve's band to the step's bootstrap envelope over
-  the order's interval (their ends summed: wider than either alone, never narrower than the truth's);
+  the order's interval (``mesh_step_interval``; their ends summed: wider than either alone, never
+  narrower than the truth's);
 * the zoning: the profile recomputed with the fronts and back scarps moved by their mean steps, at the
   order's value and at its interval's ends.
 """
@@ -177,6 +178,7 @@ def converged(
                 "accurate_band": list(band),
                 "mesh_step": float(point[0, j]),
                 "mesh_step_range": [float(point[:, j].min()), float(point[:, j].max())],
+                "mesh_step_interval": [float(lower[:, j].min()), float(upper[:, j].max())],
             }
             entry["estimate"] = None if accurate is None else accurate + entry["mesh_step"]
             entry["lower"] = None if band[0] is None else band[0] + float(lower[:, j].min())

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rgns.fidelity.multifidelity import MultiFidelityError
+from rgns.fidelity.multifidelity import MultiFidelityError, distance_at
 from rgns.fidelity.outputs import correct, write_multifidelity
 from rgns.hazard.statistics import ZONE_LEVELS
 
@@ -118,6 +118,19 @@ def test_corrected_exceedance_curves_are_probabilities_that_never_rise():
         for name in ("corrected", "lower", "upper"):
             values = np.array(curve[name])
             assert np.all(np.diff(values) <= 0.0) and values.min() >= 0.0 and values.max() <= 1.0
+
+
+def test_a_tail_the_cheap_route_misses_leaves_the_distance_interval_closed():
+    """Two of the 12 pairs run to 22 and 20 m where the cheap route says about 5 m: the band's upper curve
+    stays above 0.1 past the largest run (a curve cut there left the upper end of the runout exceeded with
+    P 0.1 open); the curves run on, so that end is a distance, beyond the far runs."""
+    rng = np.random.default_rng(3)
+    accurate = rng.gamma(4.0, 2.0, 120)
+    cheap = accurate + rng.normal(0.0, 0.3, 120)
+    accurate[:2] = [22.0, 20.0]
+    curve = correct(table(cheap), table(accurate[:12]), SETTINGS, COST)["exceedance"]["runout_m"]
+    upper = distance_at(curve["d_m"], curve["upper"], 0.1)
+    assert upper is not None and upper > 22.0
 
 
 def test_corrected_zones_rise_to_one_maximum_and_fall():
