@@ -74,7 +74,7 @@ def test_fewer_runs_than_made_is_a_warning_at_the_top(tmp_path):
     ]
 
 
-def runout_record(distances: list[str]) -> dict:
+def runout_record(distances: dict[str, dict]) -> dict:
     """A case's multifidelity record as rule multifidelity writes it, carried to the converged mesh."""
     mean = {"estimate": 9.3, "lower": 9.0, "upper": 9.7, "low_mean": 8.7, "bias": -0.6, "correlation": 0.99}
     step = {"mesh_step": 1.2, "mesh_step_range": [0.9, 1.9], "estimate": 10.5, "lower": 9.7, "upper": 11.9}
@@ -87,16 +87,17 @@ def runout_record(distances: list[str]) -> dict:
             "order": {"runout_m": [0.69, 0.94, 1.2]},
             "n_pairs": 16,
             "coarse_cell_size_m": 1.0,
-            "distances": {"runout_m": {p: {} for p in distances}},
+            "distances": {"runout_m": distances},
         },
     }
 
 
-def test_the_headline_warns_that_a_tail_distances_interval_is_too_narrow_where_it_gives_one():
-    """The measured under-coverage of the P 0.1 distance's interval is said beside the headline, only
-    when the record carries such a distance."""
-    line, _ = _runout_line("case1", runout_record(["0.5", "0.1", "0.01"]))
-    assert "runout exceeded with probability 0.1 and 0.01 is likely too narrow" in line
-    assert "89.5%" in line and "chain_coverage.md" in line
-    line, _ = _runout_line("case1", runout_record(["0.5"]))
-    assert "too narrow" not in line
+def test_the_headline_says_where_the_runs_leave_a_distances_interval_open():
+    """A distance whose interval these runs do not bound is named beside the headline; closed ones are not."""
+    closed = {"estimate": 10.0, "lower": 9.0, "upper": 12.0}
+    line, _ = _runout_line(
+        "case1", runout_record({"0.5": closed, "0.01": {"estimate": 17.0, "lower": 15.0, "upper": None}})
+    )
+    assert "do not bound the interval of the runout exceeded with P 0.01" in line and "P 0.5" not in line
+    line, _ = _runout_line("case1", runout_record({"0.5": closed, "0.1": closed}))
+    assert "do not bound" not in line
