@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import torch
-from mesh_levels import METRICS, exceeded_with, reference, run_file, run_settings, saved  # noqa: E402  (benchmarks/ is the script's own folder)
+from mesh_levels import METRICS, exceeded_with, pipeline_settings, reference, run_file, run_settings, saved  # noqa: E402  (benchmarks/ is the script's own folder)
 from scipy import stats
 
 from rgns.config import load_config
@@ -340,19 +340,6 @@ def write(result: dict, path_md: Path) -> None:
         ]
     lines.append("")
     path_md.write_text("\n".join(lines))
-
-
-def pipeline_settings(config: dict) -> dict:
-    """The settings rule multifidelity passes to the correction and the extrapolation (rules/common.smk)."""
-    hazard = config["hazard"]
-    return config["montecarlo"]["fidelity"] | {
-        "confidence": hazard["confidence"],
-        "exceedance_probabilities": hazard["exceedance_probabilities"],
-        "thresholds": hazard["zoning_thresholds"],
-        "resolution_m": hazard["zoning_resolution_m"],
-        "domain": config["domain"],
-        "coarse_cell_size_m": config["mesh"]["cell_size_m"],
-    }
 
 
 def main() -> None:

@@ -38,6 +38,8 @@ import torch  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from rgns.config import load_config  # noqa: E402
+from rgns.fidelity import mesh_extrapolation  # noqa: E402
+from rgns.fidelity.outputs import correct  # noqa: E402
 from rgns.montecarlo.runs import CaseInputs, RunSettings, run_realizations  # noqa: E402
 from rgns.scene.realizations import accurate_case_inputs  # noqa: E402
 
@@ -306,6 +308,34 @@ def comparison_row(name: str, value: float, interval: tuple[float, float], ref: 
     )
 
 
+def pipeline_settings(config: dict) -> dict:
+    """The settings rule multifidelity passes to the correction and the extrapolation (rules/common.smk)."""
+    hazard = config["hazard"]
+    return config["montecarlo"]["fidelity"] | {
+        "confidence": hazard["confidence"],
+        "exceedance_probabilities": hazard["exceedance_probabilities"],
+        "thresholds": hazard["zoning_thresholds"],
+        "resolution_m": hazard["zoning_resolution_m"],
+        "domain": config["domain"],
+        "coarse_cell_size_m": config["mesh"]["cell_size_m"],
+    }
+
+
+def matched_chain(run_json: Path, case: str, n: int) -> dict | None:
+    """The run's own chain (its cheap route, pairs at the accurate and coarse meshes: the tables beside its
+    report folder) on its first n realizations only, the reference's, as rule multifidelity estimates with the
+    default config: an estimate of the same population the reference describes (None if the tables are absent)."""
+    folder = run_json.parents[2] / "mc" / case
+    paths = [folder / name for name in ("control.csv", "paired.csv", "paired_coarse.csv")]
+    if not all(path.exists() for path in paths):
+        return None
+    low, high, coarse = (pd.read_csv(path) for path in paths)
+    settings = pipeline_settings(load_config(REPO / "config" / "config.yaml"))
+    low, high, coarse = low[low["index"] < n], high[high["index"] < n], coarse[coarse["index"] < n]
+    cost = json.loads(run_json.read_text())["cost"]
+    return mesh_extrapolation.converged(low, high, coarse, settings, correct(low, high, settings, cost))
+
+
 def subset_sampling(run_json: Path, case: str, n: int, distances: dict) -> str:
     """A sentence: the run's own cheap route over the reference's n realizations and over all of them, the same
     distances (its table results/mc/<case>/control.csv beside the run's report folder; empty if absent)."""
@@ -349,13 +379,20 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
         for p, entry in converged["distances"].get("runout_m", {}).items()
         if float(p) * len(indices) >= MIN_BEYOND
     }
-    quantities = [("mean runout R", np.mean, converged["means"]["runout_m"])]
-    quantities += [(f"R exceeded with P {p}", exceeded_with(float(p)), entry) for p, entry in distances.items()]
-    for name, reduce, headline in quantities:
-        if None in (headline["estimate"], headline["lower"], headline["upper"]):
-            continue  # a tail the run's realizations do not bound
-        ref = reference(values["runout_m"], order, reduce)
-        lines.append(comparison_row(name, headline["estimate"], (headline["lower"], headline["upper"]), ref))
+    matched = matched_chain(run_json, case, len(indices))
+    for record, suffix in ((converged, ""), (matched, f" — the run's chain on the reference's {len(indices)}")):
+        if record is None:
+            continue
+        quantities = [(f"mean runout R{suffix}", np.mean, record["means"]["runout_m"])]
+        quantities += [
+            (f"R exceeded with P {p}{suffix}", exceeded_with(float(p)), record["distances"]["runout_m"][p])
+            for p in distances
+        ]
+        for name, reduce, headline in quantities:
+            if None in (headline["estimate"], headline["lower"], headline["upper"]):
+                continue  # a tail the run's realizations do not bound
+            ref = reference(values["runout_m"], order, reduce)
+            lines.append(comparison_row(name, headline["estimate"], (headline["lower"], headline["upper"]), ref))
     runout = converged["means"]["runout_m"]
     lines.append(
         comparison_row(
@@ -388,7 +425,14 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
         f"against the run's corrected {run['means']['runout_m']['estimate']:.2f} m over {run['n_low']}"
         + "".join(f", the runout exceeded {tail}" for tail in tails)
         + f".{subset_sampling(run_json, case, len(indices), distances)} The mesh-step rows compare what the chain "
-        "adds, the step from the 0.5 m mesh to the converged one, without that sampling.",
+        "adds, the step from the 0.5 m mesh to the converged one, without that sampling"
+        + (
+            f"; the rows of the run's chain on the reference's {len(indices)} are the run's own estimator (its cheap "
+            "route, and its pairs at 0.5 and 1 m among them) on those realizations alone: the population the "
+            "reference describes."
+            if matched is not None
+            else "."
+        ),
     ]
     half_width = (runout["upper"] - runout["lower"]) / 2.0
     z = stats.norm.ppf(0.5 + confidence / 2.0)
