@@ -321,36 +321,36 @@ def pipeline_settings(config: dict) -> dict:
     }
 
 
-def matched_chain(run_json: Path, case: str, n: int) -> dict | None:
-    """The run's own chain (its cheap route, pairs at the accurate and coarse meshes: the tables beside its
-    report folder) on its first n realizations only, the reference's, as rule multifidelity estimates with the
-    default config: an estimate of the same population the reference describes (None if the tables are absent)."""
+def run_tables(run_json: Path, case: str) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame] | None:
+    """The run's cheap route and its pairs at the accurate and coarse meshes (results/mc/<case>/ beside its report
+    folder), or None if they are absent."""
     folder = run_json.parents[2] / "mc" / case
     paths = [folder / name for name in ("control.csv", "paired.csv", "paired_coarse.csv")]
     if not all(path.exists() for path in paths):
         return None
     low, high, coarse = (pd.read_csv(path) for path in paths)
+    return low.sort_values("index"), high, coarse
+
+
+def matched_chain(tables: tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame], cost: dict, n: int) -> dict:
+    """The run's own chain on its first n realizations only, the reference's, as rule multifidelity estimates
+    with the default config: an estimate of the same population the reference describes."""
+    low, high, coarse = (table[table["index"] < n] for table in tables)
     settings = pipeline_settings(load_config(REPO / "config" / "config.yaml"))
-    low, high, coarse = low[low["index"] < n], high[high["index"] < n], coarse[coarse["index"] < n]
-    cost = json.loads(run_json.read_text())["cost"]
     return mesh_extrapolation.converged(low, high, coarse, settings, correct(low, high, settings, cost))
 
 
-def subset_sampling(run_json: Path, case: str, n: int, distances: dict) -> str:
-    """A sentence: the run's own cheap route over the reference's n realizations and over all of them, the same
-    distances (its table results/mc/<case>/control.csv beside the run's report folder; empty if absent)."""
-    control = run_json.parents[2] / "mc" / case / "control.csv"
-    if not control.exists():
-        return ""
-    runout = pd.read_csv(control).sort_values("index")["runout_m"].to_numpy(float)
+def subset_sampling(cheap_runout: np.ndarray, n: int, distances: dict) -> str:
+    """A sentence: the run's own cheap route over the reference's n realizations (its first) and over all of
+    them, the same distances."""
     parts = [
-        f"with P {p} {float(exceeded_with(float(p))(runout[:n], axis=-1)):.2f} m against "
-        f"{float(exceeded_with(float(p))(runout, axis=-1)):.2f} m"
+        f"with P {p} {float(exceeded_with(float(p))(cheap_runout[:n], axis=-1)):.2f} m against "
+        f"{float(exceeded_with(float(p))(cheap_runout, axis=-1)):.2f} m"
         for p in distances
     ]
     return (
         f" The run's own cheap route shows that sampling alone: over the first {n} realizations it gives a runout "
-        f"exceeded {', '.join(parts)} over all {len(runout)}."
+        f"exceeded {', '.join(parts)} over all {len(cheap_runout)}."
     )
 
 
@@ -379,19 +379,18 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
         for p, entry in converged["distances"].get("runout_m", {}).items()
         if float(p) * len(indices) >= MIN_BEYOND
     }
-    matched = matched_chain(run_json, case, len(indices))
+    tables = run_tables(run_json, case)
+    matched = None if tables is None else matched_chain(tables, run["cost"], len(indices))
+    reducers = {None: np.mean} | {p: exceeded_with(float(p)) for p in distances}  # None: the mean
+    references = {p: reference(values["runout_m"], order, reduce) for p, reduce in reducers.items()}
     for record, suffix in ((converged, ""), (matched, f" — the run's chain on the reference's {len(indices)}")):
         if record is None:
             continue
-        quantities = [(f"mean runout R{suffix}", np.mean, record["means"]["runout_m"])]
-        quantities += [
-            (f"R exceeded with P {p}{suffix}", exceeded_with(float(p)), record["distances"]["runout_m"][p])
-            for p in distances
-        ]
-        for name, reduce, headline in quantities:
+        for p, ref in references.items():
+            headline = record["means"]["runout_m"] if p is None else record["distances"]["runout_m"][p]
             if None in (headline["estimate"], headline["lower"], headline["upper"]):
                 continue  # a tail the run's realizations do not bound
-            ref = reference(values["runout_m"], order, reduce)
+            name = ("mean runout R" if p is None else f"R exceeded with P {p}") + suffix
             lines.append(comparison_row(name, headline["estimate"], (headline["lower"], headline["upper"]), ref))
     runout = converged["means"]["runout_m"]
     lines.append(
@@ -424,7 +423,9 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
         f"quantity also differs by their sampling: at 0.5 m their mean runout is {values['runout_m'][1].mean():.2f} m "
         f"against the run's corrected {run['means']['runout_m']['estimate']:.2f} m over {run['n_low']}"
         + "".join(f", the runout exceeded {tail}" for tail in tails)
-        + f".{subset_sampling(run_json, case, len(indices), distances)} The mesh-step rows compare what the chain "
+        + "."
+        + ("" if tables is None else subset_sampling(tables[0]["runout_m"].to_numpy(float), len(indices), distances))
+        + " The mesh-step rows compare what the chain "
         "adds, the step from the 0.5 m mesh to the converged one, without that sampling"
         + (
             f"; the rows of the run's chain on the reference's {len(indices)} are the run's own estimator (its cheap "

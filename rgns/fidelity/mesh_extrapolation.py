@@ -181,8 +181,8 @@ def converged(
                 "mesh_step_interval": [float(lower[:, j].min()), float(upper[:, j].max())],
             }
             entry["estimate"] = None if accurate is None else accurate + entry["mesh_step"]
-            entry["lower"] = None if band[0] is None else band[0] + float(lower[:, j].min())
-            entry["upper"] = None if band[1] is None else band[1] + float(upper[:, j].max())
+            entry["lower"] = None if band[0] is None else band[0] + entry["mesh_step_interval"][0]
+            entry["upper"] = None if band[1] is None else band[1] + entry["mesh_step_interval"][1]
             record["distances"][key][str(p)] = entry
     record["zoning"] = _zoning(low, high, coarse, settings, ratio, orders)
     return record

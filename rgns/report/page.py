@@ -190,7 +190,7 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
             f"{key.removesuffix('_m')} exceeded with P {p}"
             for key, entries in record["converged"]["distances"].items()
             for p, entry in entries.items()
-            if entry.get("estimate") is not None and None in (entry.get("lower"), entry.get("upper"))
+            if entry["estimate"] is not None and None in (entry["lower"], entry["upper"])
         ]
         line += (
             f". These runs do not bound the interval of the {', '.join(open_ends)} (a tail the paired "
