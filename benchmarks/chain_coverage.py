@@ -346,9 +346,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--case", default="case1")
     parser.add_argument("--replicates", type=int, default=400)
-    parser.add_argument("--distance-replicates", type=int, default=200, help="~14 s each on one core")
+    parser.add_argument("--distance-replicates", type=int, default=200, help="~20 s each on one core")
     parser.add_argument("--sd-replicates", type=int, default=4000)
     parser.add_argument("--seed", type=int, default=20261125)
+    parser.add_argument(
+        "--population", type=int, help="the first this many realizations mesh_levels ran at every mesh (default: all)"
+    )
     parser.add_argument(
         "--reuse-distances",
         action="store_true",
@@ -358,7 +361,7 @@ def main() -> None:
     config = load_config(REPO / "config" / "config.yaml")
     settings = pipeline_settings(config)
     order = settings["mesh_order"]["runout_m"]
-    indices, values, seconds = saved(args.case, CELLS)
+    indices, values, seconds = saved(args.case, CELLS, args.population)
     tables = {h: mpm_table(args.case, h, indices) for h in CELLS}
     tables["cheap"], seconds["cheap"] = cheap_table(config, args.case, indices)
     cheap = {key: tables["cheap"][key].to_numpy(float) for key in METRICS}

@@ -99,10 +99,13 @@ def run(config: dict, cases: list[str], cells: list[float], realizations: int, f
                 print(f"{case} h {h:g} realization {index}: R {row['runout_m']:.2f} m, {seconds:.0f} s", flush=True)
 
 
-def saved(case: str, cells: list[float]) -> tuple[np.ndarray, dict[str, np.ndarray], dict[float, float]]:
-    """Indices every level ran, the metrics [level, realization] per key, the mean seconds per level."""
+def saved(
+    case: str, cells: list[float], first: int | None = None
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict[float, float]]:
+    """Indices every level ran (the first ``first`` of them, if given), the metrics [level, realization] per key,
+    the mean seconds per level."""
     found = [{int(p.stem) for p in (RUNS / case / f"h{h:g}").glob("*.json")} for h in cells]
-    common = np.array(sorted(set.intersection(*found))) if found else np.array([], dtype=int)
+    common = np.array(sorted(set.intersection(*found))[:first]) if found else np.array([], dtype=int)
     rows = [[json.loads(run_file(case, h, i).read_text()) for i in common] for h in cells]
     values = {key: np.array([[row[key] for row in level] for level in rows], dtype=float) for key in METRICS}
     seconds = {h: float(np.mean([row["seconds"] for row in level])) for h, level in zip(cells, rows)}
