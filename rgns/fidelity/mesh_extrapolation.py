@@ -106,12 +106,12 @@ def distance_intervals(
     confidence: float,
     seed: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The interval of each converged distance (exceeded with probability P) [P]: lower and upper ends (NaN:
-    open, the resampled curves do not fall to P within ``d_m``), from one bootstrap that resamples the pairs
-    (``high``, ``coarse`` and the first n of ``low``, together) and the unpaired cheap runs (the rest of
-    ``low``) and takes, per resample, the corrected curve's distance (as rgns.fidelity.outputs.correct finds
-    it: regression control variate, rearranged, first grid distance at most P) plus the paired quantiles'
-    Richardson step; at the expanded percentile level for n pairs, at each order, enveloped over the orders."""
+    """The interval of each converged distance (exceeded with probability P) at each order [orders, P]: lower and
+    upper ends (NaN: open, the resampled curves do not fall to P within ``d_m``), from one bootstrap that
+    resamples the pairs (``high``, ``coarse`` and the first n of ``low``, together) and the unpaired cheap runs
+    (the rest of ``low``) and takes, per resample, the corrected curve's distance (as
+    rgns.fidelity.outputs.correct finds it: regression control variate, rearranged, first grid distance at most
+    P) plus the paired quantiles' Richardson step; at the expanded percentile level for n pairs."""
     n, big_n = len(high), len(low)
     levels = 1.0 - np.asarray(probabilities, dtype=float)
     targets = np.asarray(probabilities, dtype=float)
@@ -145,7 +145,12 @@ def distance_intervals(
     lower, upper = (np.where(np.isfinite(end), end, np.nan) for end in boot.confidence_interval)
     lower = np.where(np.isnan(lower), np.nan, np.fmin(lower, point))  # the interval holds the estimate
     upper = np.where(np.isnan(upper), np.nan, np.fmax(upper, point))
-    return lower.min(axis=0), upper.max(axis=0)  # NaN (open) at any order leaves the envelope open
+    return lower, upper
+
+
+def _open(end: float) -> float | None:
+    """An interval end as recorded: None where the runs leave it open (NaN)."""
+    return None if np.isnan(end) else float(end)
 
 
 def _orders(settings: dict[str, Any]) -> dict[str, np.ndarray | None]:
@@ -227,6 +232,8 @@ def converged(
         joint_lower, joint_upper = distance_intervals(
             *values, np.asarray(curve["d_m"]), probabilities, ratio, key_order, confidence, seed
         )
+        # the envelope over the order's interval; NaN (open) at any order leaves it open
+        outer_lower, outer_upper = joint_lower.min(axis=0), joint_upper.max(axis=0)
         record["distances"][key] = {}
         for j, (p, distances) in enumerate(zip(probabilities, curve["distances"].values())):
             accurate = distances["corrected"]
@@ -239,8 +246,8 @@ def converged(
                 "mesh_step_interval": [float(lower[:, j].min()), float(upper[:, j].max())],
             }
             entry["estimate"] = None if accurate is None else accurate + entry["mesh_step"]
-            entry["lower"] = None if np.isnan(joint_lower[j]) else float(joint_lower[j])
-            entry["upper"] = None if np.isnan(joint_upper[j]) else float(joint_upper[j])
+            entry["interval_at_order"] = [_open(joint_lower[0, j]), _open(joint_upper[0, j])]  # sampling alone
+            entry["lower"], entry["upper"] = _open(outer_lower[j]), _open(outer_upper[j])
             record["distances"][key][str(p)] = entry
     record["zoning"] = _zoning(low, high, coarse, settings, ratio, orders)
     return record
