@@ -227,10 +227,10 @@ def converged(
         if key_order is None:
             continue
         probabilities = [float(p) for p in curve["distances"]]
-        values = [t[key].to_numpy(float) for t in (high, coarse, low)]
-        point, lower, upper = _quantile_steps(values[0], values[1], probabilities, ratio, key_order, confidence, seed)
+        fine, coarse_values, cheap = (t[key].to_numpy(float) for t in (high, coarse, low))
+        point, lower, upper = _quantile_steps(fine, coarse_values, probabilities, ratio, key_order, confidence, seed)
         joint_lower, joint_upper = distance_intervals(
-            *values, np.asarray(curve["d_m"]), probabilities, ratio, key_order, confidence, seed
+            fine, coarse_values, cheap, np.asarray(curve["d_m"]), probabilities, ratio, key_order, confidence, seed
         )
         # the envelope over the order's interval; NaN (open) at any order leaves it open
         outer_lower, outer_upper = joint_lower.min(axis=0), joint_upper.max(axis=0)
