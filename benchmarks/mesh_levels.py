@@ -344,16 +344,22 @@ def matched_chain(tables: tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame], cost:
 
 
 def subset_sampling(cheap_runout: np.ndarray, n: int, distances: dict) -> str:
-    """A sentence: the run's own cheap route over the reference's n realizations (its first) and over all of
-    them, the same distances."""
-    parts = [
-        f"with P {p} {float(exceeded_with(float(p))(cheap_runout[:n], axis=-1)):.2f} m against "
-        f"{float(exceeded_with(float(p))(cheap_runout, axis=-1)):.2f} m"
-        for p in distances
-    ]
+    """Sentences: the run's own cheap route over the reference's n realizations (its first), over its first 2n
+    and 4n, and over all of them, the same distances: how many realizations a reference needs to share the
+    run's tail."""
+    total = len(cheap_runout)
+    prefixes = [k for k in (n, 2 * n, 4 * n) if k < total]
+
+    def over(p: str) -> str:
+        values = [f"{float(exceeded_with(float(p))(cheap_runout[:k], axis=-1)):.2f} m" for k in (*prefixes, total)]
+        return f"with P {p} " + ", ".join(values)
+
     return (
-        f" The run's own cheap route shows that sampling alone: over the first {n} realizations it gives a runout "
-        f"exceeded {', '.join(parts)} over all {len(cheap_runout)}."
+        " The run's own cheap route shows that sampling alone: over its first "
+        + ", ".join(str(k) for k in prefixes)
+        + f" and all {total} realizations it gives a runout exceeded "
+        + "; ".join(over(p) for p in distances)
+        + "."
     )
 
 
