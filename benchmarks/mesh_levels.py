@@ -17,7 +17,8 @@ the 0.5 m level exceeds with those probabilities), over the realizations every l
 level, the observed order p = log2(|f_1 - f_0.5| / |f_0.5 - f_0.25|) of the means, the Richardson value
 f* = f_0.25 + (f_0.25 - f_0.5) / (2^p - 1) and the error of each level against it; each with a 95 %
 percentile bootstrap interval over realizations (scipy.stats.bootstrap, paired). Writes
-``mesh_levels.md``, ``mesh_levels.json`` and ``mesh_levels.png`` into benchmarks/results/.
+``mesh_levels.md``, ``mesh_levels.json`` and ``mesh_levels.png`` into benchmarks/results/ (named after the runs'
+folder, ``--runs``).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import matplotlib
@@ -45,7 +46,8 @@ from rgns.scene.realizations import accurate_case_inputs  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
-RUNS = OUT / "mesh_levels"
+RUNS = OUT / "mesh_levels"  # the runs read and written; --runs rebinds it
+CPU_RUNS = OUT / "mesh_levels"  # the one-thread CPU runs, one realization at a time
 METRICS = ("runout_m", "volume_m2", "influence_m")
 PROBABILITIES = (0.5, 0.1)
 RESAMPLES = 4000
@@ -71,32 +73,43 @@ def run_settings(config: dict) -> RunSettings:
     return RunSettings.from_params(params)
 
 
-def run(config: dict, cases: list[str], cells: list[float], realizations: int, first: int = 0) -> None:
-    """Every missing (realization, case, cell) run from realization ``first`` on, saved one by one."""
+def run(config: dict, cases: list[str], cells: list[float], realizations: int, first: int = 0, batch: int = 1) -> None:
+    """Every missing (realization, case, cell) run from realization ``first`` on, saved one by one; with
+    ``batch`` > 1, the missing ones of each aligned group of ``batch`` indices run together (one MPM batch,
+    sharing its time step; on a GPU with ``mpm.embedded.device``), each saved with the batch's seconds / size."""
     settings = run_settings(config)
+    settings = replace(settings, batch_size=batch)
+    device = config["mpm"]["embedded"]["device"]
     inputs = {
         (case, h): CaseInputs.from_params(asdict(accurate_case_inputs(config, case, h)))
         for case in cases
         for h in cells
     }
-    for index in range(first, realizations):
+    for start in range(first - first % batch, realizations, batch):
+        group = range(max(start, first), min(start + batch, realizations))
         for case in cases:
             for h in cells:
-                path = run_file(case, h, index)
-                if path.exists():
+                missing = [i for i in group if not run_file(case, h, i).exists()]
+                if not missing:
                     continue
-                start = time.perf_counter()
-                row = run_realizations(inputs[case, h], [index], settings).iloc[0].to_dict()
-                seconds = time.perf_counter() - start
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_text(
-                    json.dumps(
-                        {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
-                        | {"seconds": seconds, "cell_size_m": h},
-                        indent=1,
+                began = time.perf_counter()
+                rows = run_realizations(inputs[case, h], missing, settings)
+                seconds = (time.perf_counter() - began) / len(missing)
+                for row in rows.to_dict("records"):
+                    path = run_file(case, h, int(row["index"]))
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    record = {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
+                    path.write_text(
+                        json.dumps(
+                            record | {"seconds": seconds, "cell_size_m": h, "device": device, "batch": len(missing)},
+                            indent=1,
+                        )
                     )
+                print(
+                    f"{case} h {h:g} realizations {missing[0]}-{missing[-1]}: mean R {rows['runout_m'].mean():.2f} m, "
+                    f"{seconds:.1f} s each",
+                    flush=True,
                 )
-                print(f"{case} h {h:g} realization {index}: R {row['runout_m']:.2f} m, {seconds:.0f} s", flush=True)
 
 
 def saved(
@@ -155,6 +168,46 @@ def fit(values: np.ndarray, reduce=np.mean, seed: int = 0) -> dict:
     }
 
 
+def devices(case: str, cells: list[float], indices: np.ndarray) -> set[str]:
+    """The devices the saved runs ran on ("cpu" where a run does not say)."""
+    return {json.loads(run_file(case, h, i).read_text()).get("device", "cpu") for h in cells for i in indices}
+
+
+def cpu_agreement(case: str, cells: list[float]) -> list[str]:
+    """Where RUNS are not the one-thread CPU runs: their runout against those on the realizations both ran."""
+    if RUNS.resolve() == CPU_RUNS.resolve():
+        return []
+    rows = []
+    for h in cells:
+        both = sorted(
+            {int(p.stem) for p in (RUNS / case / f"h{h:g}").glob("*.json")}
+            & {int(p.stem) for p in (CPU_RUNS / case / f"h{h:g}").glob("*.json")}
+        )
+        if not both:
+            continue
+        pairs = np.array(
+            [
+                [
+                    json.loads((root / case / f"h{h:g}" / f"{i:04d}.json").read_text())["runout_m"]
+                    for root in (RUNS, CPU_RUNS)
+                ]
+                for i in both
+            ]
+        )
+        difference = pairs[:, 0] - pairs[:, 1]
+        rows.append(
+            f"h {h:g} m: {len(both)} realizations, mean difference {difference.mean():+.4f} m, largest "
+            f"{np.abs(difference).max():.4f} m"
+        )
+    if not rows:
+        return []
+    return [
+        "",
+        f"These runs' runout against the one-thread CPU runs (`{CPU_RUNS.relative_to(REPO)}`, one realization at a "
+        "time) on the realizations both ran: " + "; ".join(rows) + ".",
+    ]
+
+
 def finest_check(case: str, cells: list[float], finest: float = 0.125) -> list[str]:
     """Where realizations also ran at ``finest``: its means against the Richardson value the three
     coarser levels predict for the same realizations, and the order of the three finest levels."""
@@ -198,14 +251,27 @@ def exceeded_with(probability: float):
 
 
 def report(cases: list[str], cells: list[float], run_json: Path | None = None) -> None:
+    gpu = RUNS.resolve() != CPU_RUNS.resolve()
+    how = (
+        f"`python benchmarks/mesh_levels.py --run --cases case1 --device cuda --batch 64 --realizations 256 --runs "
+        f"{RUNS.relative_to(REPO)}` on a GPU (an H200; without Snakemake there: `--resolved-config`, the default config "
+        f"validated as JSON), then `python benchmarks/mesh_levels.py --cases case1 --runs {RUNS.relative_to(REPO)} "
+        "--against <run>/results/report/case1/multifidelity.json`"
+        if gpu
+        else "`python benchmarks/mesh_levels.py --run --cases case1 case3` (and `--cells 0.125`, `--first`, "
+        "`--realizations` to extend), then `python benchmarks/mesh_levels.py --against "
+        "<run>/results/report/case1/multifidelity.json`"
+    )
+    times = (
+        "Times: wall seconds per realization of a GPU batch of 64 (sharing its time step)."
+        if gpu
+        else "Times: wall seconds per realization on one thread of a 2-core machine with other work running."
+    )
     lines = [
         "# The embedded MPM's mesh error on the Monte Carlo's realizations",
         "",
-        "`python benchmarks/mesh_levels.py --run --cases case1 case3` (and `--cells 0.125`, `--first`, `--realizations` "
-        "to extend), then `python benchmarks/mesh_levels.py --against <run>/results/report/case1/multifidelity.json` "
-        "(method: its docstring). B-spline shape functions, the default config's engine settings and "
-        "run length; 95 % percentile bootstrap intervals over the realizations. Times: wall seconds per "
-        "realization on one thread of a 2-core machine with other work running.",
+        f"{how} (method: its docstring). B-spline shape functions, the default config's engine settings and run "
+        f"length; 95 % percentile bootstrap intervals over the realizations. {times}",
         "",
     ]
     record: dict = {}
@@ -243,6 +309,7 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
                 f"{cell(f['error_0.5'])} | {cell(f['error_0.25'])} |"
             )
         lines += finest_check(case, cells)
+        lines += cpu_agreement(case, cells)
         suggested = {key: mesh_order(fits[key]["order"]) for key in METRICS}
         record[case]["mesh_order"] = suggested
         lines += [
@@ -257,9 +324,9 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
             ax.errorbar(
                 [0.0],
                 [f["richardson"]["value"]],
-                yerr=[
-                    [f["richardson"]["value"] - f["richardson"]["lower"]],
-                    [f["richardson"]["upper"] - f["richardson"]["value"]],
+                yerr=[  # a percentile interval of a ratio's log need not hold its point value: drawn from it
+                    [max(0.0, f["richardson"]["value"] - f["richardson"]["lower"])],
+                    [max(0.0, f["richardson"]["upper"] - f["richardson"]["value"])],
                 ],
                 fmt="s",
                 capsize=3,
@@ -270,7 +337,7 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
     for ax in axes:
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(OUT / "mesh_levels.png", dpi=130)
+    fig.savefig(OUT / f"{RUNS.name}.png", dpi=130)
     plt.close(fig)
     if run_json is not None:
         lines += against_run(cases[0], cells, run_json)
@@ -280,8 +347,8 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
         "be trusted, and the interval says so by its width.",
         "",
     ]
-    (OUT / "mesh_levels.md").write_text("\n".join(lines))
-    (OUT / "mesh_levels.json").write_text(json.dumps(record, indent=1))
+    (OUT / f"{RUNS.name}.md").write_text("\n".join(lines))
+    (OUT / f"{RUNS.name}.json").write_text(json.dumps(record, indent=1))
     print("\n".join(lines))
 
 
@@ -445,6 +512,14 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
         ),
     ]
     half_width = (runout["upper"] - runout["lower"]) / 2.0
+    ran_on = devices(case, cells, indices)
+    if ran_on != {"cpu"}:
+        return lines + [
+            "",
+            f"These runs ran on {', '.join(sorted(ran_on))} in batches: their times are no one-core cost; the cost "
+            "comparison is that of the CPU runs (`mesh_levels.md`).",
+            "",
+        ]
     z = stats.norm.ppf(0.5 + confidence / 2.0)
     n_plain = int(np.ceil((z * values["runout_m"][2].std(ddof=1) / half_width) ** 2))
     plain_s = n_plain * seconds[0.25]
@@ -464,6 +539,7 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
 
 
 def main() -> None:
+    global RUNS
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--run", action="store_true", help="run what is missing before the report")
     parser.add_argument("--cases", nargs="+", default=["case1", "case3"])
@@ -476,11 +552,28 @@ def main() -> None:
         "its headline against the direct reference of the first case",
     )
     parser.add_argument("--first", type=int, default=0, help="the first realization to run (split across processes)")
+    parser.add_argument("--batch", type=int, default=1, help="realizations per MPM batch (they share its time step)")
+    parser.add_argument("--device", default="cpu", help="the embedded MPM's torch device (cuda: a GPU)")
+    parser.add_argument("--runs", type=Path, default=RUNS, help="where the runs are saved and read")
+    parser.add_argument("--no-report", action="store_true", help="run only (a worker among several)")
+    parser.add_argument(
+        "--resolved-config",
+        type=Path,
+        help="the default config already validated, as JSON (a machine without Snakemake)",
+    )
     args = parser.parse_args()
+    RUNS = args.runs.resolve()
     if args.run:
         torch.set_num_threads(1)
-        run(load_config(REPO / "config" / "config.yaml"), args.cases, args.cells, args.realizations, args.first)
-    report(args.cases, args.cells, args.against)
+        config = (
+            json.loads(args.resolved_config.read_text())
+            if args.resolved_config
+            else load_config(REPO / "config" / "config.yaml")
+        )
+        config["mpm"]["embedded"]["device"] = args.device
+        run(config, args.cases, args.cells, args.realizations, args.first, args.batch)
+    if not args.no_report:
+        report(args.cases, args.cells, args.against)
 
 
 if __name__ == "__main__":
