@@ -34,6 +34,7 @@ from rgns.fidelity.multifidelity import (
     corrected_affected_probability,
     distance_at,
     expanded_level,
+    rearranged,
     regression_point_estimate,
 )
 from rgns.fidelity.multilevel import extrapolated, multilevel, richardson_step
@@ -60,6 +61,16 @@ def nested_levels(
     return high.reset_index(drop=True), coarse.loc[first].reset_index(), low.loc[first + rest].reset_index()
 
 
+def _quantile_step(
+    high: np.ndarray, coarse: np.ndarray, probabilities: list[float], ratio: float, orders: np.ndarray
+) -> np.ndarray:
+    """The Richardson step of the paired quantiles exceeded with each probability, values [..., n] → [..., orders, P]."""
+    levels = 1.0 - np.asarray(probabilities, dtype=float)
+    qh = np.moveaxis(np.quantile(high, levels, axis=-1), 0, -1)  # [..., P]
+    qc = np.moveaxis(np.quantile(coarse, levels, axis=-1), 0, -1)
+    return richardson_step(qh[..., None, :], qc[..., None, :], ratio, orders[:, None])
+
+
 def _quantile_steps(
     high: np.ndarray,
     coarse: np.ndarray,
@@ -71,14 +82,9 @@ def _quantile_steps(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The Richardson step of each paired quantile (exceeded with probability P) at each order [orders, P]:
     the point value and the ends of a paired percentile bootstrap."""
-    levels = 1.0 - np.asarray(probabilities, dtype=float)
 
     def statistic(h: np.ndarray, c: np.ndarray, axis: int = -1) -> np.ndarray:
-        qh = np.moveaxis(np.quantile(h, levels, axis=axis), 0, -1)  # [..., P]
-        qc = np.moveaxis(np.quantile(c, levels, axis=axis), 0, -1)
-        return np.moveaxis(
-            richardson_step(qh[..., None, :], qc[..., None, :], ratio, orders[:, None]), (-2, -1), (0, 1)
-        )
+        return np.moveaxis(_quantile_step(h, c, probabilities, ratio, orders), (-2, -1), (0, 1))
 
     point = statistic(high, coarse)
     boot = stats.bootstrap(
@@ -113,19 +119,15 @@ def distance_intervals(
     rgns.fidelity.outputs.correct finds it: regression control variate, rearranged, first grid distance at most
     P) plus the paired quantiles' Richardson step; at the expanded percentile level for n pairs."""
     n, big_n = len(high), len(low)
-    levels = 1.0 - np.asarray(probabilities, dtype=float)
     targets = np.asarray(probabilities, dtype=float)
 
     def statistic(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
         pick = indices[0].astype(int)
         low_u = low[n + indices[1].astype(int)][..., None] if len(indices) > 1 else None
         curve = regression_point_estimate(high[pick][..., None], low[pick][..., None], low_u, d_m)  # [..., T]
-        curve = np.sort(np.clip(curve, 0.0, 1.0), axis=-1)[..., ::-1]  # rearranged
-        below = curve[..., None, :] <= targets[:, None]  # [..., P, T]
+        below = rearranged(curve)[..., None, :] <= targets[:, None]  # [..., P, T]
         distance = np.where(below.any(-1), d_m[np.argmax(below, axis=-1)], np.inf)  # [..., P]
-        qh = np.moveaxis(np.quantile(high[pick], levels, axis=-1), 0, -1)  # [..., P]
-        qc = np.moveaxis(np.quantile(coarse[pick], levels, axis=-1), 0, -1)
-        step = richardson_step(qh[..., None, :], qc[..., None, :], ratio, orders[:, None])  # [..., orders, P]
+        step = _quantile_step(high[pick], coarse[pick], probabilities, ratio, orders)  # [..., orders, P]
         return np.moveaxis(distance[..., None, :] + step, (-2, -1), (0, 1))  # [orders, P, ...]
 
     samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))

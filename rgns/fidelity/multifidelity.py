@@ -299,10 +299,10 @@ def regression_control_variate(
 
 
 def rearranged(probability: np.ndarray) -> np.ndarray:
-    """An exceedance curve made a probability and non-increasing by sorting its values (the monotone
-    rearrangement of Chernozhukov, Fernandez-Val & Galichon 2010: it never moves the curve further
-    from the true one, which is non-increasing); a control-variate estimate need not be either."""
-    return np.sort(np.clip(np.asarray(probability, dtype=float), 0.0, 1.0))[::-1]
+    """An exceedance curve (along the last axis) made a probability and non-increasing by sorting its values
+    (the monotone rearrangement of Chernozhukov, Fernandez-Val & Galichon 2010: it never moves the curve
+    further from the true one, which is non-increasing); a control-variate estimate need not be either."""
+    return np.sort(np.clip(np.asarray(probability, dtype=float), 0.0, 1.0), axis=-1)[..., ::-1]
 
 
 def corrected_affected_probability(high: np.ndarray, low: np.ndarray, x_m: np.ndarray) -> np.ndarray:
