@@ -36,6 +36,7 @@ from rgns.fidelity.multifidelity import (
     expanded_level,
     rearranged,
     regression_point_estimate,
+    stratified_bootstrap,
 )
 from rgns.fidelity.multilevel import extrapolated, multilevel, richardson_step
 from rgns.hazard.statistics import zone_levels, zones
@@ -121,30 +122,19 @@ def distance_intervals(
     n, big_n = len(high), len(low)
     targets = np.asarray(probabilities, dtype=float)
 
-    def statistic(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
-        pick = indices[0].astype(int)
-        low_u = low[n + indices[1].astype(int)][..., None] if len(indices) > 1 else None
+    def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
+        low_u = None if rest is None else low[rest][..., None]
         curve = regression_point_estimate(high[pick][..., None], low[pick][..., None], low_u, d_m)  # [..., T]
         below = rearranged(curve)[..., None, :] <= targets[:, None]  # [..., P, T]
         distance = np.where(below.any(-1), d_m[np.argmax(below, axis=-1)], np.inf)  # [..., P]
         step = _quantile_step(high[pick], coarse[pick], probabilities, ratio, orders)  # [..., orders, P]
-        return np.moveaxis(distance[..., None, :] + step, (-2, -1), (0, 1))  # [orders, P, ...]
+        return distance[..., None, :] + step  # [..., orders, P]
 
-    samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
-    point = statistic(*(s[None] for s in samples))[..., 0]
+    point = statistic(np.arange(n), np.arange(n, big_n) if big_n > n else None)
+    batch = max(1, 2_000_000 // max(1, big_n * d_m.size))
     with np.errstate(invalid="ignore"):  # a percentile between an open resample and another: NaN, read as open
-        boot = stats.bootstrap(
-            samples,
-            statistic,
-            paired=False,
-            vectorized=True,
-            n_resamples=RESAMPLES,
-            confidence_level=expanded_level(confidence, n),
-            method="percentile",
-            batch=max(1, 2_000_000 // max(1, big_n * d_m.size)),
-            random_state=np.random.default_rng(seed),
-        )
-    lower, upper = (np.where(np.isfinite(end), end, np.nan) for end in boot.confidence_interval)
+        ends = stratified_bootstrap(statistic, n, big_n, confidence, RESAMPLES, seed, batch)
+    lower, upper = (np.where(np.isfinite(end), end, np.nan) for end in ends)
     lower = np.where(np.isnan(lower), np.nan, np.fmin(lower, point))  # the interval holds the estimate
     upper = np.where(np.isnan(upper), np.nan, np.fmax(upper, point))
     return lower, upper

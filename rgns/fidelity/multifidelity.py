@@ -21,6 +21,7 @@ sides of r.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -66,6 +67,41 @@ def expanded_level(confidence: float, n: int) -> float:
     (measured: 92 % coverage for a nominal 95 % with 20 pairs)."""
     z = math.sqrt(n / (n - 1)) * stats.t.ppf(0.5 + confidence / 2.0, n - 1)
     return float(2.0 * stats.norm.cdf(z) - 1.0)
+
+
+def stratified_bootstrap(
+    statistic: Callable[[np.ndarray, np.ndarray | None], np.ndarray],
+    n: int,
+    big_n: int,
+    confidence: float,
+    resamples: int,
+    seed: int,
+    batch: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The percentile interval, at the expanded level for n pairs, of ``statistic(pairs, rest)``: row indices
+    [..., n] of the paired realizations (0 … n − 1) and [..., N − n] of the unpaired ones (n … N − 1; None when
+    every realization is paired), returning [..., *shape]. The two strata are resampled apart
+    (scipy.stats.bootstrap over two samples), ``batch`` resamples at a time → lower and upper [*shape]."""
+
+    def resampled(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
+        pick = indices[0].astype(int)
+        value = statistic(pick, n + indices[1].astype(int) if len(indices) > 1 else None)
+        batch_dims = pick.ndim - 1
+        return np.moveaxis(value, tuple(range(batch_dims)), tuple(range(value.ndim - batch_dims, value.ndim)))
+
+    samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
+    boot = stats.bootstrap(
+        samples,
+        resampled,
+        paired=False,
+        vectorized=True,
+        n_resamples=resamples,
+        confidence_level=expanded_level(confidence, n),
+        method="percentile",
+        batch=batch,
+        random_state=np.random.default_rng(seed),
+    )
+    return boot.confidence_interval
 
 
 def _sums(high: np.ndarray, low: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -115,26 +151,12 @@ def control_variate(
     shape = high.shape[1:]
     h2, l2 = high.reshape(n, -1), low.reshape(big_n, -1)
 
-    def statistic(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
-        pick = indices[0].astype(int)  # [..., n]
-        low_u = l2[n + indices[1].astype(int)] if len(indices) > 1 else None
-        value = point_estimate(h2[pick], l2[pick], low_u, axis=-2)  # [..., K]
-        return np.moveaxis(value, -1, 0)
+    def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
+        return point_estimate(h2[pick], l2[pick], None if rest is None else l2[rest], axis=-2)  # [..., K]
 
-    samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
     estimate = point_estimate(h2, l2[:n], l2[n:] if big_n > n else None, axis=0)
-    boot = stats.bootstrap(
-        samples,
-        statistic,
-        paired=False,
-        vectorized=True,
-        n_resamples=resamples,
-        confidence_level=expanded_level(confidence, n),
-        method="percentile",
-        batch=max(1, 4_000_000 // max(1, n * h2.shape[1])),
-        random_state=np.random.default_rng(seed),
-    )
-    lower, upper = boot.confidence_interval
+    batch = max(1, 4_000_000 // max(1, n * h2.shape[1]))
+    lower, upper = stratified_bootstrap(statistic, n, big_n, confidence, resamples, seed, batch)
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)  # a degenerate bootstrap: the point
     var_h, var_l, cov = _sums(h2, l2[:n], axis=0)
     denominator = np.sqrt(var_h * var_l)
@@ -248,26 +270,13 @@ def regression_control_variate(
     signs = np.ones(k) if signs is None else np.asarray(signs, dtype=float)
     inclusive = np.zeros(k, dtype=bool) if inclusive is None else np.asarray(inclusive, dtype=bool)
 
-    def statistic(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
-        pick = indices[0].astype(int)
-        low_u = low[n + indices[1].astype(int)] if len(indices) > 1 else None
-        value = regression_point_estimate(high[pick], low[pick], low_u, thresholds, signs, inclusive)  # [..., T]
-        return np.moveaxis(value, -1, 0)
+    def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
+        low_u = None if rest is None else low[rest]
+        return regression_point_estimate(high[pick], low[pick], low_u, thresholds, signs, inclusive)  # [..., T]
 
-    samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
     estimate = regression_point_estimate(high, low[:n], low[n:] if big_n > n else None, thresholds, signs, inclusive)
-    boot = stats.bootstrap(
-        samples,
-        statistic,
-        paired=False,
-        vectorized=True,
-        n_resamples=resamples,
-        confidence_level=expanded_level(confidence, n),
-        method="percentile",
-        batch=max(1, 2_000_000 // max(1, big_n * thresholds.size * k)),
-        random_state=np.random.default_rng(seed),
-    )
-    lower, upper = boot.confidence_interval
+    batch = max(1, 2_000_000 // max(1, big_n * thresholds.size * k))
+    lower, upper = stratified_bootstrap(statistic, n, big_n, confidence, resamples, seed, batch)
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)
 
     def indicators(values: np.ndarray) -> list[np.ndarray]:
