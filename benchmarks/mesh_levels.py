@@ -54,8 +54,14 @@ RESAMPLES = 4000
 ASYMPTOTIC = (0.5, 3.0)  # an order inside this is taken as the asymptotic range (as benchmarks/convergence.py)
 
 
-def run_file(case: str, cell: float, index: int) -> Path:
-    return RUNS / case / f"h{cell:g}" / f"{index:04d}.json"
+def run_file(case: str, cell: float, index: int, root: Path | None = None) -> Path:
+    """Where one run is saved: under ``root``, RUNS by default."""
+    return (root or RUNS) / case / f"h{cell:g}" / f"{index:04d}.json"
+
+
+def other_runs() -> bool:
+    """Whether RUNS (``--runs``) are not the one-thread CPU runs."""
+    return RUNS.resolve() != CPU_RUNS.resolve()
 
 
 def run_settings(config: dict) -> RunSettings:
@@ -175,7 +181,7 @@ def devices(case: str, cells: list[float], indices: np.ndarray) -> set[str]:
 
 def cpu_agreement(case: str, cells: list[float]) -> list[str]:
     """Where RUNS are not the one-thread CPU runs: their runout against those on the realizations both ran."""
-    if RUNS.resolve() == CPU_RUNS.resolve():
+    if not other_runs():
         return []
     rows = []
     for h in cells:
@@ -187,10 +193,7 @@ def cpu_agreement(case: str, cells: list[float]) -> list[str]:
             continue
         pairs = np.array(
             [
-                [
-                    json.loads((root / case / f"h{h:g}" / f"{i:04d}.json").read_text())["runout_m"]
-                    for root in (RUNS, CPU_RUNS)
-                ]
+                [json.loads(run_file(case, h, i, root).read_text())["runout_m"] for root in (RUNS, CPU_RUNS)]
                 for i in both
             ]
         )
@@ -251,7 +254,7 @@ def exceeded_with(probability: float):
 
 
 def report(cases: list[str], cells: list[float], run_json: Path | None = None) -> None:
-    gpu = RUNS.resolve() != CPU_RUNS.resolve()
+    gpu = other_runs()
     how = (
         f"`python benchmarks/mesh_levels.py --run --cases case1 --device cuda --batch 64 --realizations 256 --runs "
         f"{RUNS.relative_to(REPO)}` on a GPU (an H200; without Snakemake there: `--resolved-config`, the default config "
