@@ -26,19 +26,22 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from rgns.fidelity.multifidelity import (
+    BINS,
+    RESAMPLED_UNPAIRED,
     RESAMPLES,
     MultiFidelityError,
+    binned,
     corrected_affected_probability,
+    design_weights,
     distance_at,
-    expanded_level,
     rearranged,
     regression_point_estimate,
     stratified_bootstrap,
 )
 from rgns.fidelity.multilevel import extrapolated, multilevel, richardson_step
+from rgns.fidelity.pair_design import row_strata
 from rgns.hazard.statistics import zone_levels, zones
 from rgns.scene.realizations import FINISHED
 
@@ -62,13 +65,37 @@ def nested_levels(
     return high.reset_index(drop=True), coarse.loc[first].reset_index(), low.loc[first + rest].reset_index()
 
 
+def weighted_quantile(values: np.ndarray, weights: np.ndarray, levels: np.ndarray) -> np.ndarray:
+    """Quantiles of ``values`` [..., n] with design ``weights`` [..., n] at ``levels`` [P] → [..., P]: the
+    weighted empirical distribution interpolated between the midpoints of each value's weight (Hazen's rule,
+    numpy's ``method="hazen"`` when the weights are equal)."""
+    order = np.argsort(values, axis=-1)
+    v = np.take_along_axis(values, order, axis=-1)
+    w = np.take_along_axis(np.broadcast_to(weights, values.shape), order, axis=-1)
+    w = w / w.sum(-1, keepdims=True)
+    mid = np.cumsum(w, axis=-1) - w / 2.0  # [..., n]
+    n = values.shape[-1]
+    above = (mid[..., None, :] < np.asarray(levels)[:, None]).sum(-1)  # [..., P]
+    j = np.clip(above, 1, n - 1)
+    left, right = np.take_along_axis(mid, j - 1, axis=-1), np.take_along_axis(mid, j, axis=-1)
+    v_left, v_right = np.take_along_axis(v, j - 1, axis=-1), np.take_along_axis(v, j, axis=-1)
+    t = np.clip((np.asarray(levels) - left) / np.maximum(right - left, 1e-300), 0.0, 1.0)
+    return v_left + t * (v_right - v_left)
+
+
 def _quantile_step(
-    high: np.ndarray, coarse: np.ndarray, probabilities: list[float], ratio: float, orders: np.ndarray
+    high: np.ndarray,
+    coarse: np.ndarray,
+    probabilities: list[float],
+    ratio: float,
+    orders: np.ndarray,
+    weights: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The Richardson step of the paired quantiles exceeded with each probability, values [..., n] → [..., orders, P]."""
+    """The Richardson step of the paired quantiles exceeded with each probability, values [..., n] (design
+    ``weights`` [..., n], None: equal) → [..., orders, P]."""
     levels = 1.0 - np.asarray(probabilities, dtype=float)
-    qh = np.moveaxis(np.quantile(high, levels, axis=-1), 0, -1)  # [..., P]
-    qc = np.moveaxis(np.quantile(coarse, levels, axis=-1), 0, -1)
+    w = np.full(high.shape, 1.0 / high.shape[-1]) if weights is None else weights
+    qh, qc = weighted_quantile(high, w, levels), weighted_quantile(coarse, w, levels)  # [..., P]
     return richardson_step(qh[..., None, :], qc[..., None, :], ratio, orders[:, None])
 
 
@@ -80,26 +107,28 @@ def _quantile_steps(
     orders: np.ndarray,
     confidence: float,
     seed: int,
+    strata: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The Richardson step of each paired quantile (exceeded with probability P) at each order [orders, P]:
-    the point value and the ends of a paired percentile bootstrap."""
+    the point value and the ends of a paired percentile bootstrap (within the design ``strata``: a label per
+    pair)."""
+    n = len(high)
+    weights = _pair_weights(strata, n)
+    labels = None if strata is None else np.asarray(strata)[:n]
 
-    def statistic(h: np.ndarray, c: np.ndarray, axis: int = -1) -> np.ndarray:
-        return np.moveaxis(_quantile_step(h, c, probabilities, ratio, orders), (-2, -1), (0, 1))
+    def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
+        return _quantile_step(high[pick], coarse[pick], probabilities, ratio, orders, weights[pick])
 
-    point = statistic(high, coarse)
-    boot = stats.bootstrap(
-        (high, coarse),
-        statistic,
-        paired=True,
-        vectorized=True,
-        n_resamples=RESAMPLES,
-        confidence_level=expanded_level(confidence, len(high)),
-        method="percentile",
-        random_state=np.random.default_rng(seed),
-    )
-    low, high_end = boot.confidence_interval
+    point = statistic(np.arange(n), None)
+    low, high_end = stratified_bootstrap(statistic, n, n, confidence, RESAMPLES, seed, 1000, labels)
     return point, np.minimum(np.asarray(low), point), np.maximum(np.asarray(high_end), point)
+
+
+def _pair_weights(strata: np.ndarray | None, n: int) -> np.ndarray:
+    """The pairs' design weights from the strata of every row (pairs first)."""
+    if strata is None:
+        return np.full(n, 1.0 / n)
+    return design_weights(np.asarray(strata), n, len(strata))
 
 
 def distance_intervals(
@@ -112,28 +141,38 @@ def distance_intervals(
     orders: np.ndarray,
     confidence: float,
     seed: int,
+    strata: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The interval of each converged distance (exceeded with probability P) at each order [orders, P]: lower and
     upper ends (NaN: open, the resampled curves do not fall to P within ``d_m``), from one bootstrap that
     resamples the pairs (``high``, ``coarse`` and the first n of ``low``, together) and the unpaired cheap runs
-    (the rest of ``low``) and takes, per resample, the corrected curve's distance (as
+    (the rest of ``low``; held as they are, binned, beyond RESAMPLED_UNPAIRED), within the design ``strata``
+    (a label per row of ``low``; None: one stratum), and takes, per resample, the corrected curve's distance (as
     rgns.fidelity.outputs.correct finds it: regression control variate, rearranged, first grid distance at most
     P) plus the paired quantiles' Richardson step; at the expanded percentile level for n pairs."""
     n, big_n = len(high), len(low)
     targets = np.asarray(probabilities, dtype=float)
+    weights = _pair_weights(strata, n)
+    resample_rest = big_n - n <= RESAMPLED_UNPAIRED
+    fixed_rest, fixed_counts = (None, None) if resample_rest else binned(low[n:, None], BINS)
 
-    def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
-        low_u = None if rest is None else low[rest][..., None]
-        curve = regression_point_estimate(high[pick][..., None], low[pick][..., None], low_u, d_m)  # [..., T]
+    def value(pick: np.ndarray, low_u: np.ndarray | None, counts: np.ndarray | None) -> np.ndarray:
+        curve = regression_point_estimate(
+            high[pick][..., None], low[pick][..., None], low_u, d_m, weights=weights[pick], low_u_counts=counts
+        )  # [..., T]
         below = rearranged(curve)[..., None, :] <= targets[:, None]  # [..., P, T]
         distance = np.where(below.any(-1), d_m[np.argmax(below, axis=-1)], np.inf)  # [..., P]
-        step = _quantile_step(high[pick], coarse[pick], probabilities, ratio, orders)  # [..., orders, P]
+        step = _quantile_step(high[pick], coarse[pick], probabilities, ratio, orders, weights[pick])
         return distance[..., None, :] + step  # [..., orders, P]
 
-    point = statistic(np.arange(n), np.arange(n, big_n) if big_n > n else None)
-    batch = max(1, 2_000_000 // max(1, big_n * d_m.size))
+    def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
+        return value(pick, fixed_rest, fixed_counts) if rest is None else value(pick, low[rest][..., None], None)
+
+    point = value(np.arange(n), low[n:, None] if big_n > n else None, None)
+    evaluated = (big_n if resample_rest else n + BINS) * d_m.size
+    batch = max(1, 2_000_000 // max(1, evaluated))
     with np.errstate(invalid="ignore"):  # a percentile between an open resample and another: NaN, read as open
-        ends = stratified_bootstrap(statistic, n, big_n, confidence, RESAMPLES, seed, batch)
+        ends = stratified_bootstrap(statistic, n, big_n, confidence, RESAMPLES, seed, batch, strata, resample_rest)
     lower, upper = (np.where(np.isfinite(end), end, np.nan) for end in ends)
     lower = np.where(np.isnan(lower), np.nan, np.fmin(lower, point))  # the interval holds the estimate
     upper = np.where(np.isnan(upper), np.nan, np.fmax(upper, point))
@@ -169,11 +208,13 @@ def converged(
     settings: dict[str, Any],
     corrected: dict[str, Any],
     seed: int = 0,
+    design: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The means, exceedance distances and zoning at the converged mesh, each with its chain: the corrected
     (accurate-mesh) value, the mesh step at the order's value and interval, the converged value and interval.
     A quantity without an order (``mesh_order.<key>`` null: no asymptotic range was measured) keeps the
-    accurate mesh's value, marked so."""
+    accurate mesh's value, marked so. ``design``: the pairs' stratified design (rgns.fidelity.pair_design;
+    None: a simple random subsample)."""
     ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
     if ratio <= 1.0:
         raise MultiFidelityError(
@@ -182,6 +223,7 @@ def converged(
         )
     orders = _orders(settings)
     high, coarse, low = nested_levels(low, high, coarse)
+    strata = row_strata(design, low["index"].tolist(), len(high))
     confidence = settings["confidence"]
     record: dict[str, Any] = {
         "order": {key: None if o is None else [o[1], o[0], o[2]] for key, o in orders.items()},
@@ -194,10 +236,10 @@ def converged(
     for key, order in orders.items():
         levels = [t[[key]].to_numpy(float) for t in (high, coarse, low)]
         if order is None:
-            finest = multilevel(levels, confidence, seed=seed)
+            finest = multilevel(levels, confidence, seed=seed, strata=strata)
             step, step_range, value, lower, upper = None, None, finest.estimate[0], finest.lower[0], finest.upper[0]
         else:
-            estimate = extrapolated(levels, ratio, order[0], (order[1], order[2]), confidence, seed=seed)
+            estimate = extrapolated(levels, ratio, order[0], (order[1], order[2]), confidence, seed=seed, strata=strata)
             finest = estimate.finest
             step = float(estimate.mesh_error[0])
             step_range = [float(estimate.mesh_error_range[0][0]), float(estimate.mesh_error_range[1][0])]
@@ -220,9 +262,20 @@ def converged(
             continue
         probabilities = [float(p) for p in curve["distances"]]
         fine, coarse_values, cheap = (t[key].to_numpy(float) for t in (high, coarse, low))
-        point, lower, upper = _quantile_steps(fine, coarse_values, probabilities, ratio, key_order, confidence, seed)
+        point, lower, upper = _quantile_steps(
+            fine, coarse_values, probabilities, ratio, key_order, confidence, seed, strata
+        )
         joint_lower, joint_upper = distance_intervals(
-            fine, coarse_values, cheap, np.asarray(curve["d_m"]), probabilities, ratio, key_order, confidence, seed
+            fine,
+            coarse_values,
+            cheap,
+            np.asarray(curve["d_m"]),
+            probabilities,
+            ratio,
+            key_order,
+            confidence,
+            seed,
+            strata,
         )
         # the envelope over the order's interval; NaN (open) at any order leaves it open
         outer_lower, outer_upper = joint_lower.min(axis=0), joint_upper.max(axis=0)
@@ -241,7 +294,7 @@ def converged(
             entry["interval_at_order"] = [_open(joint_lower[0, j]), _open(joint_upper[0, j])]  # sampling alone
             entry["lower"], entry["upper"] = _open(outer_lower[j]), _open(outer_upper[j])
             record["distances"][key][str(p)] = entry
-    record["zoning"] = _zoning(low, high, coarse, settings, ratio, orders)
+    record["zoning"] = _zoning(low, high, coarse, settings, ratio, orders, strata)
     return record
 
 
@@ -252,20 +305,22 @@ def _zoning(
     settings: dict[str, Any],
     ratio: float,
     orders: dict[str, np.ndarray | None],
+    strata: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """P(x affected) with every front moved by the mean Richardson step of the fronts (at the runout's
-    order) and every back scarp by the back scarps' (at the influence distance's order); an end whose
-    quantity has no order stays where the accurate mesh put it."""
+    order) and every back scarp by the back scarps' (at the influence distance's order; means weighted by the
+    design ``strata``); an end whose quantity has no order stays where the accurate mesh put it."""
     x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
     ends_high, ends_coarse, ends_low = (t[list(ENDS)].to_numpy(float) for t in (high, coarse, low))
     steps = np.zeros((3, 2))
+    weights = _pair_weights(strata, len(high))
     for column, key in enumerate(("runout_m", "influence_m")):
         key_order = orders[key]
         if key_order is not None:
             steps[:, column] = richardson_step(
-                ends_high[:, column].mean(), ends_coarse[:, column].mean(), ratio, key_order
+                weights @ ends_high[:, column], weights @ ends_coarse[:, column], ratio, key_order
             )
-    profiles = [corrected_affected_probability(ends_high + step, ends_low + step, x_m) for step in steps]
+    profiles = [corrected_affected_probability(ends_high + step, ends_low + step, x_m, strata) for step in steps]
     thresholds = settings["thresholds"]
     return {
         "x_m": x_m.tolist(),

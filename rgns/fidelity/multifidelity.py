@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -77,19 +78,37 @@ def stratified_bootstrap(
     resamples: int,
     seed: int,
     batch: int,
+    strata: np.ndarray | None = None,
+    resample_rest: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The percentile interval, at the expanded level for n pairs, of ``statistic(pairs, rest)``: row indices
     [..., n] of the paired realizations (0 … n − 1) and [..., N − n] of the unpaired ones (n … N − 1; None when
-    every realization is paired), returning [..., *shape]. The two strata are resampled apart
-    (scipy.stats.bootstrap over two samples), ``batch`` resamples at a time → lower and upper [*shape]."""
+    every realization is paired, or when ``resample_rest`` is false: the unpaired then stand as they are),
+    returning [..., *shape]. The pairs and the unpaired are resampled apart, and within each design stratum
+    (``strata``: a label per row, pairs first; None is one stratum), so a resample keeps every stratum's counts
+    and a pair's design weight is that of the pair it copies (scipy.stats.bootstrap over the samples),
+    ``batch`` resamples at a time → lower and upper [*shape]."""
+    labels = np.zeros(big_n, dtype=int) if strata is None else np.asarray(strata)
+    rows = np.arange(big_n)
+    groups = [rows[:n][labels[:n] == s] for s in np.unique(labels[:n])]
+    if resample_rest:
+        groups += [rows[n:][labels[n:] == s] for s in np.unique(labels[n:])]
+    paired_groups = int(np.unique(labels[:n]).size)
+    if min(len(group) for group in groups[:paired_groups]) < 2:
+        raise MultiFidelityError("every design stratum needs at least 2 pairs to resample")
 
-    def resampled(*indices: np.ndarray, axis: int = -1) -> np.ndarray:
-        pick = indices[0].astype(int)
-        value = statistic(pick, n + indices[1].astype(int) if len(indices) > 1 else None)
+    def resampled(*picks: np.ndarray, axis: int = -1) -> np.ndarray:
+        chosen = [group[pick.astype(int)] for group, pick in zip(groups, picks)]
+        pick = np.concatenate(chosen[:paired_groups], axis=-1)
+        rest = np.concatenate(chosen[paired_groups:], axis=-1) if len(chosen) > paired_groups else None
+        value = statistic(pick, rest)
         batch_dims = pick.ndim - 1
         return np.moveaxis(value, tuple(range(batch_dims)), tuple(range(value.ndim - batch_dims, value.ndim)))
 
-    samples = (np.arange(n),) if big_n == n else (np.arange(n), np.arange(big_n - n))
+    singles = [len(group) < 2 for group in groups]  # a lone unpaired run in its stratum: resampled with itself
+    samples = tuple(np.arange(len(group)) if not single else np.zeros(2) for group, single in zip(groups, singles))
+    if any(singles):
+        groups = [np.repeat(group, 2) if single else group for group, single in zip(groups, singles)]
     boot = stats.bootstrap(
         samples,
         resampled,
@@ -104,36 +123,75 @@ def stratified_bootstrap(
     return boot.confidence_interval
 
 
-def _sums(high: np.ndarray, low: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sums of squared deviations of h and of l, and of their cross products, along ``axis``."""
-    dh = high - high.mean(axis=axis, keepdims=True)
-    dl = low - low.mean(axis=axis, keepdims=True)
-    return (dh * dh).sum(axis=axis), (dl * dl).sum(axis=axis), (dh * dl).sum(axis=axis)
+def design_weights(strata: np.ndarray | None, n: int, big_n: int) -> np.ndarray:
+    """Each pair's weight [n] (summing to 1) in a design stratified on the cheap route: a pair of stratum s
+    stands for N_s / N of the realizations, shared by its n_s pairs (``strata``: a label per row, pairs first;
+    None: one stratum, every pair 1 / n)."""
+    if strata is None:
+        return np.full(n, 1.0 / n)
+    labels = np.asarray(strata)
+    weights = np.empty(n)
+    for s in np.unique(labels[:n]):
+        members = labels[:n] == s
+        weights[members] = np.count_nonzero(labels == s) / big_n / np.count_nonzero(members)
+    missing = set(np.unique(labels[n:]).tolist()) - set(np.unique(labels[:n]).tolist())
+    if missing:
+        raise MultiFidelityError(f"design strata {sorted(missing)} hold realizations but no pair")
+    return weights
 
 
-def _weight(high: np.ndarray, low: np.ndarray, axis: int) -> np.ndarray:
-    """cov(h, l) / var(l) along ``axis``; 1 where the paired low-fidelity values do not vary (a tail
-    indicator that no pair reaches): the cheap route's value then stands, shifted by the paired
+def wmean(values: np.ndarray, weights: np.ndarray, axis: int) -> np.ndarray:
+    """The weighted mean along ``axis``; ``weights`` broadcast against ``values`` and sum to 1 along it."""
+    return (values * weights).sum(axis=axis)
+
+
+def _sums(
+    high: np.ndarray, low: np.ndarray, axis: int, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Weighted) sums of squared deviations of h and of l, and of their cross products, along ``axis``."""
+    if weights is None:
+        weights = np.ones_like(high) / high.shape[axis]
+    dh = high - np.expand_dims(wmean(high, weights, axis), axis)
+    dl = low - np.expand_dims(wmean(low, weights, axis), axis)
+    return wmean(dh * dh, weights, axis), wmean(dl * dl, weights, axis), wmean(dh * dl, weights, axis)
+
+
+def _weight(high: np.ndarray, low: np.ndarray, axis: int, weights: np.ndarray | None = None) -> np.ndarray:
+    """cov(h, l) / var(l) along ``axis`` (design-weighted); 1 where the paired low-fidelity values do not vary (a
+    tail indicator that no pair reaches): the cheap route's value then stands, shifted by the paired
     difference, instead of the pairs alone throwing the N cheap runs away (any fixed weight is unbiased)."""
-    _, var, cov = _sums(high, low, axis)
+    _, var, cov = _sums(high, low, axis, weights)
     return np.divide(cov, var, out=np.ones_like(cov), where=var > 1e-12 * (1.0 + np.abs(cov)))
 
 
-def point_estimate(high_p: np.ndarray, low_p: np.ndarray, low_u: np.ndarray | None, axis: int) -> np.ndarray:
-    """The control-variate estimate from paired (h, l) and unpaired l samples along ``axis``
-    (the weight estimated from the pairs; no interval)."""
+def point_estimate(
+    high_p: np.ndarray, low_p: np.ndarray, low_u: np.ndarray | None, axis: int, weights: np.ndarray | None = None
+) -> np.ndarray:
+    """The control-variate estimate from paired (h, l) and unpaired l samples along ``axis`` (the weight
+    estimated from the pairs; no interval): mean_w(h) + alpha (mean over all N of l − mean_w(l)), the pairs'
+    means weighted by their design ``weights`` (broadcast against ``high_p``; None: equal)."""
     n = high_p.shape[axis]
+    if weights is None:
+        weights = np.ones_like(high_p) / n
     total = low_p.sum(axis=axis) + (low_u.sum(axis=axis) if low_u is not None else 0.0)
     count = n + (low_u.shape[axis] if low_u is not None else 0)
-    return high_p.mean(axis=axis) + _weight(high_p, low_p, axis) * (total / count - low_p.mean(axis=axis))
+    alpha = _weight(high_p, low_p, axis, weights)
+    return wmean(high_p, weights, axis) + alpha * (total / count - wmean(low_p, weights, axis))
 
 
 def control_variate(
-    high: np.ndarray, low: np.ndarray, confidence: float = 0.95, resamples: int = RESAMPLES, seed: int = 0
+    high: np.ndarray,
+    low: np.ndarray,
+    confidence: float = 0.95,
+    resamples: int = RESAMPLES,
+    seed: int = 0,
+    strata: np.ndarray | None = None,
 ) -> ControlVariateEstimate:
     """Estimate the high-fidelity mean of each quantity from ``high`` [n, ...] and ``low`` [N, ...].
 
-    ``low[:n]`` are the same realizations as ``high``; n ≥ 2 pairs are needed for the weight."""
+    ``low[:n]`` are the same realizations as ``high``; n ≥ 2 pairs are needed for the weight. ``strata`` (a
+    label per row of ``low``, pairs first; None: one stratum, the pairs a simple random subsample): the pairs
+    were drawn at random within strata of the cheap route's values, and weigh N_s / (N n_s)."""
     high, low = np.asarray(high, dtype=float), np.asarray(low, dtype=float)
     n, big_n = high.shape[0], low.shape[0]
     if high.shape[1:] != low.shape[1:]:
@@ -150,26 +208,28 @@ def control_variate(
         raise MultiFidelityError(f"confidence must lie in (0, 1), got {confidence}")
     shape = high.shape[1:]
     h2, l2 = high.reshape(n, -1), low.reshape(big_n, -1)
+    w = design_weights(strata, n, big_n)
 
     def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
-        return point_estimate(h2[pick], l2[pick], None if rest is None else l2[rest], axis=-2)  # [..., K]
+        rest_values = None if rest is None else l2[rest]
+        return point_estimate(h2[pick], l2[pick], rest_values, axis=-2, weights=w[pick][..., None])  # [..., K]
 
-    estimate = point_estimate(h2, l2[:n], l2[n:] if big_n > n else None, axis=0)
-    batch = max(1, 4_000_000 // max(1, n * h2.shape[1]))
-    lower, upper = stratified_bootstrap(statistic, n, big_n, confidence, resamples, seed, batch)
+    estimate = point_estimate(h2, l2[:n], l2[n:] if big_n > n else None, axis=0, weights=w[:, None])
+    batch = max(1, 4_000_000 // max(1, big_n * h2.shape[1]))
+    lower, upper = stratified_bootstrap(statistic, n, big_n, confidence, resamples, seed, batch, strata)
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)  # a degenerate bootstrap: the point
-    var_h, var_l, cov = _sums(h2, l2[:n], axis=0)
+    var_h, var_l, cov = _sums(h2, l2[:n], 0, w[:, None])
     denominator = np.sqrt(var_h * var_l)
     correlation = np.divide(cov, denominator, out=np.full(h2.shape[1], np.nan), where=denominator > 0)
     return ControlVariateEstimate(
         estimate=estimate.reshape(shape),
         lower=np.asarray(lower).reshape(shape),
         upper=np.asarray(upper).reshape(shape),
-        high_mean=h2.mean(0).reshape(shape),
+        high_mean=wmean(h2, w[:, None], 0).reshape(shape),
         low_mean=l2.mean(0).reshape(shape),
-        weight=_weight(h2, l2[:n], axis=0).reshape(shape),
+        weight=_weight(h2, l2[:n], 0, w[:, None]).reshape(shape),
         correlation=correlation.reshape(shape),
-        bias=(l2[:n].mean(0) - h2.mean(0)).reshape(shape),
+        bias=wmean(l2[:n] - h2, w[:, None], 0).reshape(shape),
         n_paired=n,
         n_low=big_n,
         confidence=confidence,
@@ -181,28 +241,61 @@ def _exceeds(values: np.ndarray, thresholds: np.ndarray, inclusive: bool) -> np.
     return ((values[..., None] >= thresholds) if inclusive else (values[..., None] > thresholds)).astype(float)
 
 
-def predicted_exceedance(high_p: np.ndarray, low_p: np.ndarray, low: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
+def predicted_exceedance(
+    high_p: np.ndarray,
+    low_p: np.ndarray,
+    low: np.ndarray,
+    thresholds: np.ndarray,
+    weights: np.ndarray | None = None,
+) -> np.ndarray:
     """The control variate of 1[h > t]: P(h > t | l) under h = a + b l + N(0, s²), a, b and s fitted by
-    least squares on the pairs finite at both fidelities, evaluated at every low-fidelity value.
+    (design-weighted) least squares on the pairs finite at both fidelities, evaluated at every low-fidelity value.
 
-    ``high_p``, ``low_p`` [..., n] (pairs), ``low`` [..., M] (where to evaluate), ``thresholds`` [T]
-    → [..., M, T]. A non-finite low value (nothing moved) gives 1[l > t]; a perfect cheap model
-    (s = 0) gives the step 1[l > t] itself."""
+    ``high_p``, ``low_p`` [..., n] (pairs; ``weights`` [..., n] their design weights, None: equal), ``low``
+    [..., M] (where to evaluate), ``thresholds`` [T] → [..., M, T]. A non-finite low value (nothing moved)
+    gives 1[l > t]; a perfect cheap model (s = 0) gives the step 1[l > t] itself."""
     finite = np.isfinite(high_p) & np.isfinite(low_p)
+    w = np.where(finite, 1.0 if weights is None else weights, 0.0)
+    total = w.sum(-1, keepdims=True)
+    w = w / np.maximum(total, 1e-300)
     count = finite.sum(-1, keepdims=True)
+    effective = np.where(total > 0, 1.0 / np.maximum((w * w).sum(-1, keepdims=True), 1e-300), 0.0)
     hi, lo = np.where(finite, high_p, 0.0), np.where(finite, low_p, 0.0)
-    mean_h = hi.sum(-1, keepdims=True) / np.maximum(count, 1)
-    mean_l = lo.sum(-1, keepdims=True) / np.maximum(count, 1)
+    mean_h = (w * hi).sum(-1, keepdims=True)
+    mean_l = (w * lo).sum(-1, keepdims=True)
     dh, dl = np.where(finite, hi - mean_h, 0.0), np.where(finite, lo - mean_l, 0.0)
-    var, cov = (dl * dl).sum(-1, keepdims=True), (dh * dl).sum(-1, keepdims=True)
+    var, cov = (w * dl * dl).sum(-1, keepdims=True), (w * dh * dl).sum(-1, keepdims=True)
     slope = np.divide(cov, var, out=np.zeros_like(cov), where=var > 1e-12)
     residual = np.where(finite, dh - slope * dl, 0.0)
-    scale = np.sqrt((residual**2).sum(-1, keepdims=True) / np.maximum(count - 2, 1))
-    scale = np.maximum(scale, 1e-9 * (1.0 + np.sqrt(var / np.maximum(count, 1))))
+    # the weighted mean square of the residuals, made unbiased for the fit's 2 parameters (n / (n − 2) with
+    # equal weights) by the design's effective count
+    scale = np.sqrt((w * residual**2).sum(-1, keepdims=True) * effective / np.maximum(effective - 2.0, 1.0))
+    scale = np.maximum(scale, 1e-9 * (1.0 + np.sqrt(var / np.maximum(count, 1) * count)))
     predicted = mean_h + slope * (low - mean_l)  # [..., M]
     smooth = stats.norm.cdf((predicted[..., None] - thresholds) / scale[..., None])
     step = low[..., None] > thresholds
     return np.where(np.isfinite(low)[..., None], smooth, step)
+
+
+def binned(values: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Many cheap values [M, K] as at most ``bins`` values per column and their counts [B, K]: the mean of the
+    members of each of ``bins`` equal-width bins (empty bins count 0), non-finite values kept as one bin of
+    their own. The mean of a smooth function over thousands of runs then costs ``bins`` evaluations; the error
+    is that of the function's curvature over a bin, about (span / bins)² of its second derivative."""
+    values = np.asarray(values, dtype=float)
+    centres = np.zeros((bins + 1, values.shape[1]))
+    counts = np.zeros((bins + 1, values.shape[1]))
+    for k in range(values.shape[1]):
+        column = values[:, k]
+        finite = column[np.isfinite(column)]
+        if finite.size:
+            edges = np.linspace(finite.min(), finite.max(), bins + 1)
+            which = np.clip(np.searchsorted(edges, finite, side="right") - 1, 0, bins - 1)
+            counts[:bins, k] = np.bincount(which, minlength=bins)
+            sums = np.bincount(which, weights=finite, minlength=bins)
+            centres[:bins, k] = np.divide(sums, counts[:bins, k], out=edges[:-1].copy(), where=counts[:bins, k] > 0)
+        centres[bins, k], counts[bins, k] = np.nan, column.size - finite.size
+    return centres, counts
 
 
 def regression_point_estimate(
@@ -212,21 +305,39 @@ def regression_point_estimate(
     thresholds: np.ndarray,
     signs: np.ndarray | None = None,
     inclusive: np.ndarray | None = None,
+    weights: np.ndarray | None = None,
+    low_u_counts: np.ndarray | None = None,
 ) -> np.ndarray:
     """sum_k sign_k P(v_k > t) (≥ where ``inclusive``) from pairs [..., n, K] and unpaired low values
-    [..., M, K], each term mean_n(1[h > t] − g) + mean_N(g) with g the regression control variate
-    → [..., T]."""
-    columns = high_p.shape[-1]
+    [..., M, K], each term mean_w(1[h > t] − g) + mean_N(g) with g the regression control variate and the
+    pairs' means weighted by their design ``weights`` [..., n] (None: equal) → [..., T]. ``low_u_counts``
+    [M, K]: the unpaired values are :func:`binned` ones, each standing for that many runs."""
+    columns, n = high_p.shape[-1], high_p.shape[-2]
     signs = np.ones(columns) if signs is None else signs
     inclusive = np.zeros(columns, dtype=bool) if inclusive is None else inclusive
+    w = np.full(high_p.shape[:-1], 1.0 / n) if weights is None else weights
     total = np.zeros(())
     for k in range(columns):
         hi, lo = high_p[..., k], low_p[..., k]
-        every = lo if low_u is None else np.concatenate([lo, low_u[..., k]], axis=-1)
-        g_all = predicted_exceedance(hi, lo, every, thresholds)  # [..., N, T]
+        g_pairs = predicted_exceedance(hi, lo, lo, thresholds, w)  # [..., n, T]
+        if low_u is None:
+            g_mean = g_pairs.mean(-2)
+        else:
+            g_rest = predicted_exceedance(hi, lo, low_u[..., k], thresholds, w)  # [..., M, T]
+            if low_u_counts is None:
+                g_mean = np.concatenate([g_pairs, g_rest], axis=-2).mean(-2)
+            else:
+                g_sum = g_pairs.sum(-2) + (g_rest * low_u_counts[:, k, None]).sum(-2)
+                g_mean = g_sum / (n + float(low_u_counts[:, k].sum()))
         hit = _exceeds(hi, thresholds, inclusive[k])  # [..., n, T]
-        total = total + signs[k] * (hit.mean(-2) - g_all[..., : hi.shape[-1], :].mean(-2) + g_all.mean(-2))
+        total = total + signs[k] * ((w[..., None] * (hit - g_pairs)).sum(-2) + g_mean)
     return total
+
+
+# above this many unpaired cheap runs, the regression estimators' bootstraps hold them as they are and binned
+# (their own sampling is then a share n / N of the pairs' or less) instead of resampling every one per resample
+RESAMPLED_UNPAIRED = 4096
+BINS = 1024
 
 
 def regression_control_variate(
@@ -238,6 +349,7 @@ def regression_control_variate(
     confidence: float = 0.95,
     resamples: int = RESAMPLES,
     seed: int = 0,
+    strata: np.ndarray | None = None,
 ) -> ControlVariateEstimate:
     """Exceedance probabilities sum_k sign_k P(v_k > t) of the high-fidelity values, for every threshold t.
 
@@ -252,8 +364,10 @@ def regression_control_variate(
     so the interval carries its uncertainty. ``high`` [n] or [n, K], ``low`` [N] or [N, K] (the
     first n paired); K columns are combined with ``signs`` (e.g. P(front ≥ x) − P(rear > x) for
     P(x affected); ``inclusive`` marks the columns compared with ≥). NaN marks a realization with
-    nothing to measure (it never exceeds). The correlation reported is that of 1[h > t] with g over
-    the pairs (what sets the variance), the bias the cheap route's own (its indicators), the weight 1.
+    nothing to measure (it never exceeds). ``strata``: as :func:`control_variate`'s (the pairs' means
+    weighted by design). The correlation reported is that of 1[h > t] with g over the pairs (what sets
+    the variance), the bias the cheap route's own (its indicators), the weight 1. Beyond
+    RESAMPLED_UNPAIRED unpaired runs the bootstrap holds them as they are, binned.
     """
     high = np.asarray(high, dtype=float).reshape(len(high), -1)
     low = np.asarray(low, dtype=float).reshape(len(low), -1)
@@ -269,38 +383,43 @@ def regression_control_variate(
         raise MultiFidelityError("high- or low-fidelity values hold infinity (a diverged run?)")
     signs = np.ones(k) if signs is None else np.asarray(signs, dtype=float)
     inclusive = np.zeros(k, dtype=bool) if inclusive is None else np.asarray(inclusive, dtype=bool)
+    w = design_weights(strata, n, big_n)
+    resample_rest = big_n - n <= RESAMPLED_UNPAIRED
+    fixed_rest, fixed_counts = (None, None) if resample_rest else binned(low[n:], BINS)
 
     def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
-        low_u = None if rest is None else low[rest]
-        return regression_point_estimate(high[pick], low[pick], low_u, thresholds, signs, inclusive)  # [..., T]
+        low_u = fixed_rest if rest is None else low[rest]
+        return regression_point_estimate(
+            high[pick], low[pick], low_u, thresholds, signs, inclusive, w[pick], fixed_counts
+        )  # [..., T]
 
-    estimate = regression_point_estimate(high, low[:n], low[n:] if big_n > n else None, thresholds, signs, inclusive)
-    batch = max(1, 2_000_000 // max(1, big_n * thresholds.size * k))
-    lower, upper = stratified_bootstrap(statistic, n, big_n, confidence, resamples, seed, batch)
+    estimate = regression_point_estimate(high, low[:n], low[n:] if big_n > n else None, thresholds, signs, inclusive, w)
+    evaluated = (big_n if resample_rest else n + BINS) * thresholds.size * k
+    batch = max(1, 2_000_000 // max(1, evaluated))
+    lower, upper = stratified_bootstrap(statistic, n, big_n, confidence, resamples, seed, batch, strata, resample_rest)
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)
 
     def indicators(values: np.ndarray) -> list[np.ndarray]:
         return [_exceeds(values[:, j], thresholds, inclusive[j]) for j in range(k)]
 
-    def combined_mean(columns: list[np.ndarray]) -> np.ndarray:  # summed as the estimate sums its terms
-        return sum(signs[j] * columns[j].mean(0) for j in range(k))
+    def combined(columns: list[np.ndarray]) -> np.ndarray:
+        return sum(signs[j] * columns[j] for j in range(k))
 
-    h_columns, l_columns = indicators(high), indicators(low)
-    h_ind = sum(signs[j] * h_columns[j] for j in range(k))
-    g_pairs = sum(signs[j] * predicted_exceedance(high[:, j], low[:n, j], low[:n, j], thresholds) for j in range(k))
-    var_h, var_l, cov = _sums(h_ind, g_pairs, axis=0)
+    h_ind, l_columns = combined(indicators(high)), indicators(low)
+    g_pairs = combined([predicted_exceedance(high[:, j], low[:n, j], low[:n, j], thresholds, w) for j in range(k)])
+    var_h, var_l, cov = _sums(h_ind, g_pairs, 0, w[:, None])
     denominator = np.sqrt(var_h * var_l)
     correlation = np.divide(cov, denominator, out=np.full(thresholds.size, np.nan), where=denominator > 0)
-    high_mean = combined_mean(h_columns)
+    high_mean = wmean(h_ind, w[:, None], 0)
     return ControlVariateEstimate(
         estimate=estimate,
         lower=np.asarray(lower),
         upper=np.asarray(upper),
         high_mean=high_mean,
-        low_mean=combined_mean(l_columns),
+        low_mean=combined([column.mean(0) for column in l_columns]),  # summed as the estimate sums its terms
         weight=np.ones(thresholds.size),
         correlation=correlation,
-        bias=combined_mean([c[:n] for c in l_columns]) - high_mean,
+        bias=combined([wmean(column[:n], w[:, None], 0) for column in l_columns]) - high_mean,
         n_paired=n,
         n_low=big_n,
         confidence=confidence,
@@ -314,16 +433,25 @@ def rearranged(probability: np.ndarray) -> np.ndarray:
     return np.sort(np.clip(np.asarray(probability, dtype=float), 0.0, 1.0), axis=-1)[..., ::-1]
 
 
-def corrected_affected_probability(high: np.ndarray, low: np.ndarray, x_m: np.ndarray) -> np.ndarray:
+def corrected_affected_probability(
+    high: np.ndarray, low: np.ndarray, x_m: np.ndarray, strata: np.ndarray | None = None
+) -> np.ndarray:
     """P(x affected) = P(front ≥ x) − P(back scarp > x) from pairs ``high`` [n, 2] and cheap runs ``low``
-    [N, 2] (front, rear; the first n paired), each term rearranged to be non-increasing in x before
-    the difference: estimated as one, the difference wiggles where the terms overlap, and a wiggle
-    across a zoning threshold drew an island (a 0.75 m "extremely low" stretch inside "low")."""
+    [N, 2] (front, rear; the first n paired; ``strata`` as :func:`control_variate`'s), each term rearranged to
+    be non-increasing in x before the difference: estimated as one, the difference wiggles where the terms
+    overlap, and a wiggle across a zoning threshold drew an island (a 0.75 m "extremely low" stretch inside
+    "low")."""
     n = len(high)
+    w = design_weights(strata, n, len(low))
     terms = [
         rearranged(
             regression_point_estimate(
-                high[:, [k]], low[:n, [k]], low[n:, [k]] if len(low) > n else None, x_m, inclusive=np.array([inclusive])
+                high[:, [k]],
+                low[:n, [k]],
+                low[n:, [k]] if len(low) > n else None,
+                x_m,
+                inclusive=np.array([inclusive]),
+                weights=w,
             )
         )
         for k, inclusive in ((0, True), (1, False))
@@ -420,3 +548,41 @@ def speedup(cost_high: float, cost_low: float, correlation: float) -> float:
     """Cost of plain high-fidelity MC over that of optimally allocated MFMC at equal variance."""
     ratio = optimal_ratio(cost_high, cost_low, correlation)
     return 1.0 / ((1.0 + ratio * cost_low / cost_high) * variance_factor(ratio, correlation))
+
+
+def weighted_std(values: np.ndarray, weights: np.ndarray) -> float:
+    """The standard deviation of ``values`` under design ``weights`` (summing to 1)."""
+    mean = float(weights @ values)
+    return math.sqrt(float(weights @ (values - mean) ** 2))
+
+
+def route(cost_high: float, cost_low: float, correlation: float) -> dict[str, Any]:
+    """Whether the correction pays for the cheap route: MFMC's predicted speed-up at equal error over plain
+    MPM Monte Carlo (:func:`speedup`, optimal allocation). Below 1 — a cheap route so poorly correlated that its
+    runs cost more than they save — plain MPM on as many realizations reaches the same interval for less, and
+    the route is "plain MPM"; unknown costs (NaN) keep the multi-fidelity route."""
+    rho = float(np.nan_to_num(correlation))
+    if not (math.isfinite(cost_high) and math.isfinite(cost_low)):
+        return {
+            "correlation_runout": rho,
+            "optimal_ratio": None,
+            "speedup_at_equal_error": None,
+            "route": "multi-fidelity",
+            "reason": "the routes' costs were not measured",
+        }
+    gain = speedup(cost_high, cost_low, rho)
+    plain = gain < 1.0
+    reason = (
+        f"the cheap route correlates {rho:.2f} with the accurate MPM: the correction is {gain:.2f}x the cost of "
+        "plain MPM for the same interval, so plain MPM Monte Carlo on the paired realizations is the cheaper route"
+        if plain
+        else f"the cheap route correlates {rho:.2f} with the accurate MPM: {gain:.1f}x cheaper than plain MPM "
+        "at equal error"
+    )
+    return {
+        "correlation_runout": rho,
+        "optimal_ratio": optimal_ratio(cost_high, cost_low, rho),
+        "speedup_at_equal_error": gain,
+        "route": "plain MPM" if plain else "multi-fidelity",
+        "reason": reason,
+    }

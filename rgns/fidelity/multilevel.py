@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from rgns.fidelity.multifidelity import RESAMPLES, MultiFidelityError, expanded_level
+from rgns.fidelity.multifidelity import RESAMPLES, MultiFidelityError, design_weights, expanded_level
 
 
 @dataclass
@@ -66,49 +66,78 @@ def _checked(levels: list[np.ndarray]) -> list[np.ndarray]:
     return arrays
 
 
-def _weights(levels: list[np.ndarray], n0: int, axis: int) -> list[np.ndarray]:
-    """cov(f_0, f_k) / var(f_k) over the first n0 realizations along ``axis``; 1 where f_k does not vary."""
+def _level_mean(level: np.ndarray, n0: int, weights: np.ndarray, axis: int) -> np.ndarray:
+    """A level's mean over its own runs: weighted by design over the n0 pairs, plain over more."""
+    if level.shape[axis] == n0:
+        return (level * weights).sum(axis=axis)
+    return level.mean(axis=axis)
+
+
+def _weights(levels: list[np.ndarray], n0: int, axis: int, weights: np.ndarray) -> list[np.ndarray]:
+    """cov(f_0, f_k) / var(f_k) over the first n0 realizations along ``axis`` (design-weighted); 1 where f_k
+    does not vary."""
     first = np.take(levels[0], np.arange(n0), axis=axis)
-    d0 = first - first.mean(axis=axis, keepdims=True)
-    weights = []
+    d0 = first - np.expand_dims((first * weights).sum(axis=axis), axis)
+    result = []
     for level in levels[1:]:
         fk = np.take(level, np.arange(n0), axis=axis)
-        dk = fk - fk.mean(axis=axis, keepdims=True)
-        var, cov = (dk * dk).sum(axis=axis), (d0 * dk).sum(axis=axis)
-        weights.append(np.divide(cov, var, out=np.ones_like(cov), where=var > 1e-12 * (1.0 + np.abs(cov))))
-    return weights
+        dk = fk - np.expand_dims((fk * weights).sum(axis=axis), axis)
+        var, cov = (weights * dk * dk).sum(axis=axis), (weights * d0 * dk).sum(axis=axis)
+        result.append(np.divide(cov, var, out=np.ones_like(cov), where=var > 1e-12 * (1.0 + np.abs(cov))))
+    return result
 
 
-def mfmc_estimate(levels: list[np.ndarray], axis: int) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
-    """The estimate, the weights and each level's correction, the realizations along ``axis``."""
+def mfmc_estimate(
+    levels: list[np.ndarray], axis: int, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """The estimate, the weights and each level's correction, the realizations along ``axis``; the pairs' (the
+    finest level's n0) means weighted by their design ``weights`` (broadcast against the levels; None: equal)."""
     counts = [level.shape[axis] for level in levels]
-    weights = _weights(levels, counts[0], axis)
-    estimate = levels[0].mean(axis=axis)
+    n0 = counts[0]
+    if weights is None:
+        weights = np.full([n0 if d == axis % levels[0].ndim else 1 for d in range(levels[0].ndim)], 1.0 / n0)
+    alphas = _weights(levels, n0, axis, weights)
+    estimate = _level_mean(levels[0], n0, weights, axis)
     corrections = []
-    for k, (level, weight) in enumerate(zip(levels[1:], weights), start=1):
-        previous = np.take(level, np.arange(counts[k - 1]), axis=axis).mean(axis=axis)
-        corrections.append(weight * (level.mean(axis=axis) - previous))
+    for k, (level, alpha) in enumerate(zip(levels[1:], alphas), start=1):
+        previous = _level_mean(np.take(level, np.arange(counts[k - 1]), axis=axis), n0, weights, axis)
+        corrections.append(alpha * (_level_mean(level, n0, weights, axis) - previous))
         estimate = estimate + corrections[-1]
-    return estimate, weights, corrections
+    return estimate, alphas, corrections
 
 
-def _blocks(counts: list[int]) -> list[np.ndarray]:
-    """Realization indices of each nested block that has any: block j holds n_{j-1} … n_j - 1."""
+def _blocks(counts: list[int], strata: np.ndarray | None) -> list[np.ndarray]:
+    """Realization indices of each nested block that has any (block j holds n_{j-1} … n_j - 1), each cut by
+    design stratum (``strata``: a label per realization of the cheapest level)."""
     edges = [0] + counts
-    return [np.arange(lo, hi) for lo, hi in zip(edges, edges[1:]) if hi > lo]
+    blocks = [np.arange(lo, hi) for lo, hi in zip(edges, edges[1:]) if hi > lo]
+    if strata is None:
+        return blocks
+    return [block[strata[block] == s] for block in blocks for s in np.unique(strata[block])]
 
 
 def _bootstrap(
-    levels: list[np.ndarray], statistic_of, confidence: float, resamples: int, seed: int
+    levels: list[np.ndarray],
+    statistic_of,
+    confidence: float,
+    resamples: int,
+    seed: int,
+    strata: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Stratified percentile bootstrap of ``statistic_of(resampled levels)`` over the nested blocks."""
+    """Stratified percentile bootstrap of ``statistic_of(resampled levels, pair weights)`` over the nested blocks
+    (and the design strata within them)."""
     counts = [len(level) for level in levels]
-    blocks = _blocks(counts)
+    blocks = _blocks(counts, strata)
+    weights = design_weights(strata, counts[0], counts[-1])
+    if any(len(block) < 2 for block in blocks if block[0] < counts[0]):
+        raise MultiFidelityError("every design stratum needs at least 2 pairs to resample")
+    singles = [len(block) < 2 for block in blocks]
+    blocks = [np.repeat(block, 2) if single else block for block, single in zip(blocks, singles)]
 
     def statistic(*picks: np.ndarray, axis: int = -1) -> np.ndarray:
         order = np.concatenate([blocks[j][pick.astype(int)] for j, pick in enumerate(picks)], axis=-1)  # [B, N_K]
         resampled = [level[order[..., :count]] for level, count in zip(levels, counts)]  # [B, n_k, Q]
-        return np.moveaxis(statistic_of(resampled), -1, 0)
+        return np.moveaxis(statistic_of(resampled, weights[order[..., : counts[0]]][..., None]), -1, 0)
 
     samples = tuple(np.arange(len(block)) for block in blocks)
     boot = stats.bootstrap(
@@ -125,25 +154,45 @@ def _bootstrap(
     return boot.confidence_interval
 
 
+def _checked_strata(strata: np.ndarray | None, counts: list[int]) -> np.ndarray | None:
+    """Design strata (a label per realization of the cheapest level) for levels whose counts are n0 or N only."""
+    if strata is None:
+        return None
+    if any(count not in (counts[0], counts[-1]) for count in counts):
+        raise MultiFidelityError(f"a stratified design needs every level at the pairs' count or all: counts {counts}")
+    return np.asarray(strata)
+
+
 def multilevel(
-    levels: list[np.ndarray], confidence: float = 0.95, resamples: int = RESAMPLES, seed: int = 0
+    levels: list[np.ndarray],
+    confidence: float = 0.95,
+    resamples: int = RESAMPLES,
+    seed: int = 0,
+    strata: np.ndarray | None = None,
 ) -> MultilevelEstimate:
-    """The finest level's mean of each quantity from nested levels [n_k, ...], finest first."""
+    """The finest level's mean of each quantity from nested levels [n_k, ...], finest first; ``strata``: the
+    design strata the finest level's realizations were drawn in (a label per realization of the cheapest level,
+    as :func:`rgns.fidelity.multifidelity.control_variate`'s; every level at n0 or N realizations)."""
     if not 0.0 < confidence < 1.0:
         raise MultiFidelityError(f"confidence must lie in (0, 1), got {confidence}")
     shape = np.asarray(levels[0]).shape[1:]
     arrays = _checked(levels)
-    estimate, weights, corrections = mfmc_estimate(arrays, axis=0)
-    lower, upper = _bootstrap(arrays, lambda r: mfmc_estimate(r, axis=-2)[0], confidence, resamples, seed)
+    counts = [len(a) for a in arrays]
+    strata = _checked_strata(strata, counts)
+    weights = design_weights(strata, counts[0], counts[-1])[:, None]
+    estimate, alphas, corrections = mfmc_estimate(arrays, axis=0, weights=weights)
+    lower, upper = _bootstrap(
+        arrays, lambda r, w: mfmc_estimate(r, axis=-2, weights=w)[0], confidence, resamples, seed, strata
+    )
     lower, upper = np.minimum(lower, estimate), np.maximum(upper, estimate)
     return MultilevelEstimate(
         estimate=estimate.reshape(shape),
         lower=np.asarray(lower).reshape(shape),
         upper=np.asarray(upper).reshape(shape),
-        level_means=[a.mean(axis=0).reshape(shape) for a in arrays],
-        weights=[np.ones(shape)] + [w.reshape(shape) for w in weights],
+        level_means=[_level_mean(a, counts[0], weights, 0).reshape(shape) for a in arrays],
+        weights=[np.ones(shape)] + [w.reshape(shape) for w in alphas],
         corrections=[np.zeros(shape)] + [c.reshape(shape) for c in corrections],
-        counts=[len(a) for a in arrays],
+        counts=counts,
         confidence=confidence,
     )
 
@@ -177,31 +226,36 @@ def extrapolated(
     confidence: float = 0.95,
     resamples: int = RESAMPLES,
     seed: int = 0,
+    strata: np.ndarray | None = None,
 ) -> Extrapolated:
     """The converged mean of each quantity: the multilevel estimate of ``levels`` (finest first; the
     first two are meshes whose cells differ by ``ratio``) plus the Richardson step of their paired
-    means at the observed ``order``. The interval is the envelope of the bootstrap intervals at the
-    order's point value and its interval's ends."""
+    means at the observed ``order`` (design-weighted with ``strata``, as :func:`multilevel`). The interval is the
+    envelope of the bootstrap intervals at the order's point value and its interval's ends."""
     if len(levels) < 2 or ratio <= 1.0:
         raise MultiFidelityError(f"extrapolation needs two meshes, the coarser's cell larger (ratio {ratio})")
     low_order, high_order = order_interval
     if not 0.0 < low_order <= order <= high_order:
         raise MultiFidelityError(f"the order {order} must lie in its interval {order_interval}, above 0")
-    finest = multilevel(levels, confidence, resamples, seed)
+    finest = multilevel(levels, confidence, resamples, seed, strata)
     arrays = _checked(levels)
     orders = np.array([order, low_order, high_order])
+    n0 = len(arrays[0])
 
-    def statistic(resampled: list[np.ndarray]) -> np.ndarray:
-        n0 = resampled[0].shape[-2]
-        estimate = mfmc_estimate(resampled, axis=-2)[0]
+    def statistic(resampled: list[np.ndarray], weights: np.ndarray) -> np.ndarray:
+        estimate = mfmc_estimate(resampled, axis=-2, weights=weights)[0]
         step = richardson_step(
-            resampled[0].mean(axis=-2), resampled[1][..., :n0, :].mean(axis=-2), ratio, orders[:, None, None]
+            (resampled[0] * weights).sum(axis=-2),
+            (resampled[1][..., :n0, :] * weights).sum(axis=-2),
+            ratio,
+            orders[:, None, None],
         )  # [3, B, Q]
         return np.moveaxis(estimate[None] + step, 0, -2).reshape(*estimate.shape[:-1], -1)  # [B, 3 Q]
 
-    lower, upper = _bootstrap(arrays, statistic, confidence, resamples, seed)
+    lower, upper = _bootstrap(arrays, statistic, confidence, resamples, seed, strata)
     q = arrays[0].shape[1]
-    steps = richardson_step(arrays[0].mean(axis=0), arrays[1][: len(arrays[0])].mean(axis=0), ratio, orders[:, None])
+    w = design_weights(strata, n0, len(arrays[-1]))[:, None]
+    steps = richardson_step((arrays[0] * w).sum(axis=0), (arrays[1][:n0] * w).sum(axis=0), ratio, orders[:, None])
     point = finest.estimate.reshape(-1) + steps[0]
     lower = np.minimum(np.asarray(lower).reshape(3, q).min(axis=0), point)
     upper = np.maximum(np.asarray(upper).reshape(3, q).max(axis=0), point)
