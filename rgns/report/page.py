@@ -9,7 +9,9 @@ from __future__ import annotations
 import base64
 import html
 import json
+import math
 import re
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
@@ -18,6 +20,7 @@ from typing import Any
 import jinja2
 import pandas as pd
 
+from rgns.fidelity.multifidelity import distance_at
 from rgns.surrogates.gate import SURROGATE_NAMES
 
 CAPTIONS = Path(__file__).resolve().parents[2] / "docs" / "captions"
@@ -29,6 +32,9 @@ figcaption { font-size: 0.9em; color: #444; margin-top: 0.4em; }
 table { border-collapse: collapse; font-size: 0.85em; margin: 1em 0; }
 td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: right; } th { background: #f0f0f0; }
 .note { background: #fff6d6; padding: 0.5em 1em; border-left: 4px solid #e0b000; }
+h3 { margin-top: 1.5em; }
+details { border-bottom: 1px solid #ddd; margin: 0.4em 0; }
+summary { font-size: 1.15em; font-weight: bold; cursor: pointer; padding: 0.3em 0; }
 """
 
 
@@ -59,17 +65,22 @@ def table(frame: pd.DataFrame, digits: int = 3) -> str:
 
 @dataclass
 class Report:
-    """Sections of HTML, in order."""
+    """Sections of HTML, in order; a folded one is a <details> element, closed until the reader opens it."""
 
     title: str
     lead: str = ""  # HTML under the title, before the first section
-    sections: list[tuple[str, str]] = field(default_factory=list)
+    sections: list[tuple[str, str, bool]] = field(default_factory=list)
 
-    def add(self, heading: str, *parts: str) -> None:
-        self.sections.append((heading, "\n".join(parts)))
+    def add(self, heading: str, *parts: str, folded: bool = False) -> None:
+        self.sections.append((heading, "\n".join(parts), folded))
 
     def html(self) -> str:
-        body = "\n".join(f"<h2>{html.escape(h)}</h2>\n{content}" for h, content in self.sections)
+        body = "\n".join(
+            f"<details><summary>{html.escape(h)}</summary>\n{content}\n</details>"
+            if folded
+            else f"<h2>{html.escape(h)}</h2>\n{content}"
+            for h, content, folded in self.sections
+        )
         return (
             f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(self.title)}</title>"
             f"<style>{STYLE}</style></head><body><h1>{html.escape(self.title)}</h1>\n{self.lead}\n{body}\n"
@@ -81,17 +92,54 @@ def paragraph(text: str, note: bool = False) -> str:
     return f'<p class="note">{html.escape(text)}</p>' if note else f"<p>{html.escape(text)}</p>"
 
 
-def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
-    """One Monte Carlo case: a site's map view, then the best estimate (the multi-fidelity correction,
-    where there is one), then the Monte Carlo's own exceedance, convergence and zoning."""
-    if "map.png" in files:
-        report.add(f"Site: {case} — map view", figure(files["map.png"], caption("site_map", case=case)))
-    corrected = "multifidelity.json" in files
-    if corrected:
-        multifidelity_section(report, case, files)
-    own = " (uncorrected: the Monte Carlo's simulator alone)" if corrected else ""
-    exceedance = json.loads(files["exceedance.json"].read_text())
+def subheading(text: str) -> str:
+    return f"<h3>{html.escape(text)}</h3>"
+
+
+def _number(value: Any, digits: int) -> str:
+    """A number to ``digits`` decimals; None or NaN as an en dash."""
+    return "–" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def with_interval(entry: list[Any], digits: int = 3) -> str:
+    """[point, lower, upper] as "point [lower, upper]"."""
+    point, lower, upper = entry
+    return f"{_number(point, digits)} [{_number(lower, digits)}, {_number(upper, digits)}]"
+
+
+def convergence_parts(case: str, files: dict[str, Path]) -> list[str]:
+    """The Monte Carlo's convergence: its criterion, where each metric converged, the figure."""
     convergence = json.loads(files["convergence.json"].read_text())
+    converged = ", ".join(
+        f"{metric}: "
+        + (
+            f"converged at n = {entry['converged_at']}"
+            if entry["converged_at"]
+            else f"not converged within n = {entry['n']}"
+        )
+        for metric, entry in convergence["metrics"].items()
+    )
+    return [
+        paragraph(convergence["criterion"]),
+        paragraph(converged),
+        figure(files["convergence.png"], caption("convergence", case=case)),
+    ]
+
+
+def monte_carlo_sections(report: Report, case: str, files: dict[str, Path], part: str) -> None:
+    """One Monte Carlo case's own map, as its simulator drew it: its exceedance, zoning and a site's map view
+    (``part`` "answer"), its convergence (``part`` "evidence"). Where the case has a multi-fidelity correction
+    these are the uncorrected map, all folded among the details (``part`` "details")."""
+    own = " (uncorrected: the Monte Carlo's simulator alone)" if "multifidelity.json" in files else ""
+    folded = part == "details"
+    if part == "evidence":
+        report.add(f"Hazard: {case} — convergence{own}", *convergence_parts(case, files))
+        return
+    if "map.png" in files:
+        report.add(
+            f"Site: {case} — map view{own}", figure(files["map.png"], caption("site_map", case=case)), folded=folded
+        )
+    exceedance = json.loads(files["exceedance.json"].read_text())
     zoning = json.loads(files["zoning.json"].read_text())
     distances = pd.DataFrame(
         [
@@ -123,26 +171,15 @@ def hazard_sections(report: Report, case: str, files: dict[str, Path]) -> None:
         paragraph(summary),
         table(distances, 2),
         figure(files["exceedance.png"], caption("exceedance", case=case)),
+        folded=folded,
     )
-    converged = ", ".join(
-        f"{metric}: "
-        + (
-            f"converged at n = {entry['converged_at']}"
-            if entry["converged_at"]
-            else f"not converged within n = {entry['n']}"
-        )
-        for metric, entry in convergence["metrics"].items()
-    )
-    report.add(
-        f"Hazard: {case} — convergence{own}",
-        paragraph(convergence["criterion"]),
-        paragraph(converged),
-        figure(files["convergence.png"], caption("convergence", case=case)),
-    )
+    if folded:
+        report.add(f"Hazard: {case} — convergence{own}", *convergence_parts(case, files), folded=True)
     report.add(
         f"Hazard: {case} — zoning{own}",
         table(pd.DataFrame(zoning["zones"]), 2),
         figure(files["zoning.png"], caption("zoning", case=case)),
+        folded=folded,
     )
 
 
@@ -201,82 +238,13 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
     return line + ".", excluded
 
 
-def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> None:
-    """The corrected means, exceedance distances and zones beside the uncorrected ones, costs, allocation."""
+def best_estimate_section(report: Report, case: str, files: dict[str, Path]) -> None:
+    """The answer for a case with a multi-fidelity correction: its figure, one table of the best estimate (the
+    means and the distances exceeded with each probability, with intervals, at the converged mesh where the
+    mesh extrapolation ran), and the zones."""
     record = json.loads(files["multifidelity.json"].read_text())
-    own = {} if record.get("cheap_is_simulator", True) else record["simulator_means"]
-    means = pd.DataFrame(
-        [
-            {
-                "quantity": f"mean {key}",
-                **({"Monte Carlo": own[key]} if own else {}),
-                "cheap route": m["low_mean"],
-                "corrected": m["estimate"],
-                "lower": m["lower"],
-                "upper": m["upper"],
-                "bias on the pairs": m["bias"],
-                "correlation": m["correlation"],
-            }
-            for key, m in record["means"].items()
-        ]
-    )
-    distances = pd.DataFrame(
-        [
-            {
-                "metric": key,
-                "probability": p,
-                **({"Monte Carlo (m)": d["simulator"]} if own else {}),
-                "cheap route (m)": d["uncorrected"],
-                "corrected (m)": d["corrected"],
-            }
-            for key, curve in record["exceedance"].items()
-            for p, d in curve["distances"].items()
-        ]
-    )
-    cost, allocation = record["cost"], record["allocation"]
-    parts = [paragraph(_runout_line(case, record)[0])]
-    if "converged" in record:
-        parts += mesh_chain(record)
-    parts += [
-        table(means, 3),
-        table(distances, 2),
-        paragraph(
-            f"Cheap route: {record.get('cheap_route', 'the Monte Carlo simulator')}. "
-            f"Cost per realization: cheap route {cost['low_s']:.3g} s, accurate MPM {cost['high_s']:.2f} s "
-            f"({record['n_low']} and {record['n_paired']} realizations). With the runout correlation "
-            f"{allocation['correlation_runout']:.2f}, the optimal ratio of cheap to paired runs is "
-            f"{allocation['optimal_ratio']:.1f} and multi-fidelity reaches a given error "
-            f"{allocation['speedup_at_equal_error']:.2f}x faster than the accurate MPM alone."
-        ),
-    ]
-    if "target" in allocation:
-        target = allocation["target"]
-        parts.append(
-            paragraph(
-                f"For a {record['confidence']:.0%} half-width of {target['half_width_m']:g} m on the "
-                f"mean runout: {target['n_high']} paired and {target['n_low']} cheap realizations "
-                f"({target['cost']:.0f} s against {target['plain_cost']:.0f} s by the accurate MPM alone)."
-            )
-        )
-    if "plan" in record:
-        plan = record["plan"]
-        if plan["reached"]:
-            verdict = "reached"
-        elif plan["needed"] is None:
-            verdict = (
-                f"NOT reachable with {plan['n_low']} cheap realizations, whatever the pairs "
-                "(raise montecarlo.realizations)"
-            )
-        else:
-            verdict = f"NOT reached within the cap of {plan['cap']} pairs (montecarlo.fidelity.max_paired)"
-        parts.append(
-            paragraph(
-                f"Pairs chosen by the run for a {record['confidence']:.0%} half-width of {plan['target_half_width_m']:g} m "
-                f"on the mean runout: from a pilot of {plan['pilot']} pairs (std of R {plan['std_m']:.2f} m, correlation "
-                f"{plan['correlation']:.3f}) and {plan['n_low']} cheap realizations, {plan['n_paired']} paired; predicted "
-                f"half-width {plan['predicted_half_width_m']:.3g} m, {verdict}."
-            )
-        )
+    parts = [figure(files["multifidelity.png"], caption("multifidelity", case=case))]
+    parts += mesh_chain(record) if "converged" in record else corrected_table(record)
     if "converged" in record:
         zoning = record["converged"]["zoning"]
         parts += [
@@ -287,14 +255,59 @@ def multifidelity_section(report: Report, case: str, files: dict[str, Path]) -> 
                 f"{zoning['rear_step_range_m'][0]:+.2f} to {zoning['rear_step_range_m'][1]:+.2f}):"
             ),
             table(pd.DataFrame(zoning["zones"]), 2),
-            paragraph(f"Zones corrected to the MPM at {record['high_cell_size_m']:g} m cells:"),
         ]
-    parts += [
-        table(pd.DataFrame(record["zoning"]["zones_corrected"]), 2),
-        figure(files["multifidelity.png"], caption("multifidelity", case=case)),
-    ]
+    else:
+        parts += [
+            paragraph(f"Zones corrected to the MPM at {record['high_cell_size_m']:g} m cells:"),
+            table(pd.DataFrame(record["zoning"]["zones_corrected"]), 2),
+        ]
     title = "multi-fidelity correction and mesh extrapolation" if "converged" in record else "multi-fidelity correction"
     report.add(f"Hazard: {case} — {title}: the best estimate", *parts)
+
+
+def corrected_table(record: dict[str, Any]) -> list[str]:
+    """The best estimate where no mesh extrapolation ran: the cheap route corrected to the accurate MPM, the
+    means with their intervals and the distances exceeded with each probability with the band of the
+    corrected exceedance curve."""
+    high = record["high_cell_size_m"]
+    step = f"+ correction to MPM {high:g} m"
+
+    def difference(corrected: float | None, cheap: float | None) -> float | None:
+        return None if corrected is None or cheap is None else corrected - cheap
+
+    rows = [
+        {
+            "quantity": f"mean {key}",
+            "cheap route": m["low_mean"],
+            step: m["estimate"] - m["low_mean"],
+            "= best estimate": m["estimate"],
+            "[lower": m["lower"],
+            "upper]": m["upper"],
+        }
+        for key, m in record["means"].items()
+    ]
+    rows += [
+        {
+            "quantity": f"{key} exceeded with P {p}",
+            "cheap route": d["uncorrected"],
+            step: difference(d["corrected"], d["uncorrected"]),
+            "= best estimate": d["corrected"],
+            "[lower": distance_at(curve["d_m"], curve["lower"], float(p)),
+            "upper]": distance_at(curve["d_m"], curve["upper"], float(p)),
+        }
+        for key, curve in record["exceedance"].items()
+        for p, d in curve["distances"].items()
+    ]
+    return [
+        paragraph(
+            f"The best estimate (m, m²): the cheap route on all {record['n_low']} realizations corrected by the "
+            f"{record['n_paired']} pairs run by the MPM at {high:g} m cells, with its {record['confidence']:.0%} "
+            f"interval (a distance's: where the band of the corrected exceedance curve crosses its probability). "
+            f"It stays at the {high:g} m "
+            "mesh: no mesh extrapolation ran (montecarlo.fidelity.mesh_order)."
+        ),
+        table(pd.DataFrame(rows), 2),
+    ]
 
 
 def mesh_chain(record: dict[str, Any]) -> list[str]:
@@ -349,11 +362,216 @@ def mesh_chain(record: dict[str, Any]) -> list[str]:
             f"step from that mesh to the converged one: Richardson extrapolation of the pairs' difference "
             f"between {c['coarse_cell_size_m']:g} m and {high:g} m cells at the order measured for each "
             "quantity (benchmarks/results/mesh_levels.md; none where no asymptotic range was found, and "
-            "that quantity stays at the accurate mesh). The mesh error is corrected for; the interval "
-            "holds the sampling, the correction's weights and the order's interval."
+            "that quantity stays at the accurate mesh)."
         ),
         table(pd.DataFrame(rows), 2),
     ]
+
+
+def agreement_table(validation: dict[str, dict[str, Any]]) -> str:
+    """A pair validation (rgns.fidelity.pair_validation's format) as a table: n, R², NRMSE and bias per metric."""
+    rows = [
+        {
+            "metric": key,
+            "n": entry["n"],
+            "R² [lower, upper]": with_interval(entry["r2"]),
+            "NRMSE": _number(entry["nrmse"][0], 3),
+            "bias [lower, upper]": with_interval(entry["bias"]),
+        }
+        for key, entry in validation.items()
+    ]
+    return table(pd.DataFrame(rows))
+
+
+def pair_validation_parts(case: str, record: dict[str, Any]) -> list[str]:
+    """The learned simulator against the MPM on the case's own pairs, weighted by their design: the
+    correction's cheap route against the accurate MPM (``record["pair_validation"]``) and the Monte Carlo's
+    simulator against the MPM at its own mesh (``record["simulator_validation"]``), where the record holds them
+    (as rgns.fidelity.pair_validation returns them)."""
+    parts: list[str] = []
+    statistics = (
+        "R² = 1 − E_w[(l − h)²] / Var_w(h), h the MPM and l the other route; NRMSE = sqrt(E_w[(l − h)²]) over "
+        "the MPM's range on the pairs; bias = E_w[l − h] (m, m² for the volume); "
+        f"{record['confidence']:.0%} bootstrap intervals resampling the pairs within their strata; n: the pairs "
+        "finite at both routes for that metric."
+    )
+    design = (
+        "each pair weighted by the design: a pair of stratum s stands for N_s / N of the Monte Carlo's "
+        "realizations, shared by the stratum's n_s pairs, so these are the statistics over the Monte Carlo's "
+        "realizations, not over the pairs as drawn."
+    )
+    if record.get("pair_validation"):
+        parts += [
+            agreement_table(record["pair_validation"]),
+            paragraph(
+                f"{case}: the correction's cheap route ({record.get('cheap_route', 'the Monte Carlo simulator')}) "
+                f"against the MPM at {record['high_cell_size_m']:g} m cells on this case's own "
+                f"{record['n_paired']} paired realizations (those of the correction above, not the test cases'), "
+                f"{design} {statistics}"
+            ),
+        ]
+    if record.get("simulator_validation"):
+        mesh = (
+            f" ({record['converged']['coarse_cell_size_m']:g} m cells)"
+            if "converged" in record and "coarse_cell_size_m" in record["converged"]
+            else ""
+        )
+        parts += [
+            agreement_table(record["simulator_validation"]),
+            paragraph(
+                f"{case}: the Monte Carlo's simulator against the MPM at its own mesh{mesh} on the same pairs, "
+                f"weighted alike: how far the runs of the uncorrected map (among the details) are from the MPM. "
+                f"{statistics}"
+            ),
+        ]
+    return [subheading("The pairs' validation"), *parts] if parts else []
+
+
+def _short(value: Any) -> str:
+    """A plan's value in a table cell: numbers to 4 significant digits, long lists cut."""
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    if isinstance(value, list):
+        shown = ", ".join(_short(v) for v in value[:8])
+        return f"[{shown}, … ({len(value)} values)]" if len(value) > 8 else f"[{shown}]"
+    return str(value)
+
+
+def allocation_parts(record: dict[str, Any]) -> list[str]:
+    """The runs' costs, the MFMC allocation, the target's and the run's own plan of pairs."""
+    cost, allocation = record["cost"], record["allocation"]
+    parts = [subheading("The allocation")]
+    plan = record.get("plan")
+    if plan:
+        parts += [
+            paragraph("The plan of the paired runs, as the run chose it:"),
+            table(pd.DataFrame([{"key": key, "value": _short(value)} for key, value in plan.items()])),
+        ]
+    ratio, gain = allocation.get("optimal_ratio"), allocation.get("speedup_at_equal_error")
+    allocated = (
+        f"With the runout correlation {allocation['correlation_runout']:.2f}, the optimal ratio of cheap to paired "
+        f"runs is {ratio:.1f} and multi-fidelity reaches a given error {gain:.2f}x faster than the accurate MPM alone."
+        if ratio is not None and gain is not None
+        else f"Runout correlation {allocation['correlation_runout']:.2f}; without both costs no allocation."
+    )
+    route = f" Route: {allocation['route']} ({allocation['reason']})." if "route" in allocation else ""
+    parts.append(
+        paragraph(
+            f"Cheap route: {record.get('cheap_route', 'the Monte Carlo simulator')}. "
+            f"Cost per realization: cheap route {cost['low_s']:.3g} s, accurate MPM {cost['high_s']:.2f} s "
+            f"({record['n_low']} and {record['n_paired']} realizations). {allocated}{route}"
+        )
+    )
+    if "target" in allocation:
+        target = allocation["target"]
+        parts.append(
+            paragraph(
+                f"For a {record['confidence']:.0%} half-width of {target['half_width_m']:g} m on the "
+                f"mean runout: {target['n_high']} paired and {target['n_low']} cheap realizations "
+                f"({target['cost']:.0f} s against {target['plain_cost']:.0f} s by the accurate MPM alone)."
+            )
+        )
+    if plan and {"reached", "needed", "cap", "pilot", "std_m", "predicted_half_width_m"} <= plan.keys():
+        if plan["reached"]:
+            verdict = "reached"
+        elif plan["needed"] is None:
+            verdict = (
+                f"NOT reachable with {plan['n_low']} cheap realizations, whatever the pairs "
+                "(raise montecarlo.realizations)"
+            )
+        else:
+            verdict = f"NOT reached within the cap of {plan['cap']} pairs (montecarlo.fidelity.max_paired)"
+        parts.append(
+            paragraph(
+                f"Pairs chosen by the run for a {record['confidence']:.0%} half-width of {plan['target_half_width_m']:g} m "
+                f"on the mean runout: from a pilot of {plan['pilot']} pairs (std of R {plan['std_m']:.2f} m, correlation "
+                f"{plan['correlation']:.3f}) and {plan['n_low']} cheap realizations, {plan['n_paired']} paired; predicted "
+                f"half-width {plan['predicted_half_width_m']:.3g} m, {verdict}."
+            )
+        )
+    return parts
+
+
+def interval_parts(record: dict[str, Any]) -> list[str]:
+    """What the best estimate's intervals hold, and what they do not."""
+    high = record["high_cell_size_m"]
+    text = (
+        f"The {record['confidence']:.0%} intervals are percentile bootstraps that resample the paired and the "
+        "unpaired realizations apart (within the pairs' design strata where the pairs were stratified), "
+        "re-estimating the correction's weights in every resample, at Hesterberg's expanded level for the "
+        "pairs: they hold the sampling of the cheap runs and of the pairs and the correction's weights."
+    )
+    if "converged" in record:
+        text += " The mesh error is corrected for: at the converged mesh the interval also holds the order's interval."
+        stays = [f"mean {key}" for key, m in record["converged"]["means"].items() if m["mesh_step"] is None]
+        if stays:
+            text += (
+                f" Not carried to the converged mesh (no order measured): {', '.join(stays)}; their intervals "
+                f"do not hold the error of the {high:g} m mesh."
+            )
+    else:
+        text += f" They do not hold the error of the {high:g} m mesh itself: no mesh extrapolation ran."
+    return [subheading("What the intervals hold"), paragraph(text)]
+
+
+def evidence_section(report: Report, case: str, files: dict[str, Path]) -> None:
+    """The evidence under a case's best estimate: the pairs' validation, the allocation, what the intervals hold."""
+    record = json.loads(files["multifidelity.json"].read_text())
+    report.add(
+        f"Hazard: {case} — the evidence",
+        *pair_validation_parts(case, record),
+        *allocation_parts(record),
+        *interval_parts(record),
+    )
+
+
+def correction_details(report: Report, case: str, files: dict[str, Path]) -> None:
+    """The correction's own tables, folded: the means and distances of the cheap route beside the corrected
+    ones, the cheap route's bias and correlation on the pairs, and the zones at the accurate mesh."""
+    record = json.loads(files["multifidelity.json"].read_text())
+    own = {} if record.get("cheap_is_simulator", True) else record["simulator_means"]
+    means = pd.DataFrame(
+        [
+            {
+                "quantity": f"mean {key}",
+                **({"Monte Carlo": own[key]} if own else {}),
+                "cheap route": m["low_mean"],
+                "corrected": m["estimate"],
+                "lower": m["lower"],
+                "upper": m["upper"],
+                "bias on the pairs": m["bias"],
+                "correlation": m["correlation"],
+            }
+            for key, m in record["means"].items()
+        ]
+    )
+    distances = pd.DataFrame(
+        [
+            {
+                "metric": key,
+                "probability": p,
+                **({"Monte Carlo (m)": d["simulator"]} if own else {}),
+                "cheap route (m)": d["uncorrected"],
+                "corrected (m)": d["corrected"],
+            }
+            for key, curve in record["exceedance"].items()
+            for p, d in curve["distances"].items()
+        ]
+    )
+    parts = [
+        paragraph(
+            f"The correction to the MPM at {record['high_cell_size_m']:g} m cells, quantity by quantity: the "
+            "cheap route, corrected, and the cheap route's bias and correlation on the pairs."
+        ),
+        table(means, 3),
+        table(distances, 2),
+    ]
+    if "converged" in record:  # else these zones are the best estimate's, shown above
+        parts += [
+            paragraph(f"Zones corrected to the MPM at {record['high_cell_size_m']:g} m cells:"),
+            table(pd.DataFrame(record["zoning"]["zones_corrected"]), 2),
+        ]
+    report.add(f"Hazard: {case} — the multi-fidelity correction in detail", *parts, folded=True)
 
 
 def fidelity_summary(report: Report, hazard: dict[str, dict[str, Path]]) -> None:
@@ -371,10 +589,13 @@ def gate_section(
     report: Report,
     gate: dict[str, dict[str, Any]],
     cases: list[str],
-    validation_table: pd.DataFrame,
+    validation_table: pd.DataFrame | None = None,
     surrogate: str = "gns",
+    corrected: Collection[str] = (),
 ) -> None:
-    """The validation gate's verdict for every Monte Carlo case and the table it was based on, first."""
+    """The validation gate's verdict for every Monte Carlo case, first (with ``validation_table``, the test
+    cases' table it was based on, where given; the page shows that table among its details). ``corrected``:
+    the cases whose best estimate the MPM pairs correct."""
     name = SURROGATE_NAMES[surrogate]
     lines = []
     for case in cases:
@@ -391,12 +612,22 @@ def gate_section(
                 )
             )
         else:
-            then = (
-                "the Monte Carlo below was run by MPM instead (on_failure: fallback), so it does not rest "
-                f"on the {name}"
-                if verdict["simulator"] == "mpm"
-                else "the Monte Carlo was stopped"
-            )
+            if verdict["simulator"] == "mpm":
+                then = (
+                    "the Monte Carlo below was run by MPM instead (on_failure: fallback), so it does not rest "
+                    f"on the {name}"
+                )
+            elif case in corrected:
+                then = (
+                    f"the Monte Carlo ran the {name} all the same (validation.acceptance.on_failure: report): the "
+                    f"best estimate below is corrected to the MPM by this case's pairs, so it does not rest on the "
+                    f"{name} being right (its errors widen the intervals)"
+                )
+            else:
+                then = (
+                    f"the Monte Carlo ran the {name} all the same (validation.acceptance.on_failure: report), "
+                    "uncorrected: its map below rests on the failed model"
+                )
             lines.append(
                 paragraph(
                     f"{case}: the {name} FAILED the validation gate ({'; '.join(verdict['failures'])}); {then}.",
@@ -412,10 +643,12 @@ def gate_section(
                     note=not verdict["passed"],
                 )
             )
-    report.add("Validation gate", *lines, table(validation_table))
+    report.add("Validation gate", *lines, *([] if validation_table is None else [table(validation_table)]))
 
 
-def model_section(report: Report, surrogate: str, evaluation: dict[str, Any], learning_curve: Path) -> None:
+def model_section(
+    report: Report, surrogate: str, evaluation: dict[str, Any], learning_curve: Path, folded: bool = False
+) -> None:
     """What the learned simulator is and how it trained."""
     if surrogate == "endstate":
         card = evaluation.get("card", "rgns/models/endstate_card.md")
@@ -428,6 +661,7 @@ def model_section(report: Report, surrogate: str, evaluation: dict[str, Any], le
                 f"{evaluation['valid_mean_predictor_loss']:.3g} (mean squared scaled final displacement)."
             ),
             figure(learning_curve, caption("endstate_curve")),
+            folded=folded,
         )
         return
     origin = "the model shipped with rgns (card: rgns/models/card.md), " if evaluation.get("shipped") else ""
@@ -439,11 +673,13 @@ def model_section(report: Report, surrogate: str, evaluation: dict[str, Any], le
             f"{evaluation['rollout_mean_error_m']:.3g} m over {evaluation['frames']} frames."
         ),
         figure(learning_curve, caption("learning_curve")),
+        folded=folded,
     )
 
 
 def routes(cases: list[str], gate: dict[str, dict[str, Any]], surrogate: str) -> dict[str, str]:
-    """What ran each Monte Carlo case: the surrogate that passed its gate, MPM after a failed gate, or MPM."""
+    """What ran each Monte Carlo case: the surrogate that passed its gate, the surrogate that failed it (the gate
+    a report of the model: on_failure report), MPM after a failed gate (on_failure fallback), or MPM."""
     name = SURROGATE_NAMES[surrogate]
     return {
         case: (
@@ -453,7 +689,7 @@ def routes(cases: list[str], gate: dict[str, dict[str, Any]], surrogate: str) ->
             if gate[case]["passed"]
             else f"MPM (the {name} failed its gate)"
             if gate[case]["simulator"] == "mpm"
-            else "stopped"
+            else f"{name} (failed its gate, run all the same)"
         )
         for case in cases
     }
@@ -508,9 +744,13 @@ def build_report(
     surrogate: str = "gns",
     made: dict[str, str] | None = None,
 ) -> str:
-    """The whole page: what made it, the validation gate's verdict, then configuration, model, validation,
-    hazard. ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and evaluation
-    these are; ``made`` the provenance (rgns.provenance)."""
+    """The whole page, the answer first: (a) what made it and the route of each Monte Carlo case, with every
+    warning (runs left out, a failed gate, numbers the multi-fidelity check distrusts); (b) per case the best
+    estimate (its figure, one table, the zones); (c) the evidence (the pairs' validation, the allocation, what
+    the intervals hold; a case without a correction: its convergence); (d) folded details: configuration,
+    scenes, the model, its validation on the test cases, each case's correction in detail and its uncorrected
+    Monte Carlo map. ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and
+    evaluation these are; ``made`` the provenance (rgns.provenance)."""
     lead = provenance_line(made, routes(list(hazard), gate or {}, surrogate)) if made else ""
     report = Report(title, "\n".join([lead, *shrinkage_notes(hazard, validation_summary)]))
     # the table's columns named after the simulator that ran (its files call every learned simulator gns)
@@ -521,16 +761,38 @@ def build_report(
             else column
         )
     )
-    gate_section(report, gate or {}, list(hazard), validation_table, surrogate)
+    corrected = [case for case, files in hazard.items() if "multifidelity.json" in files]
+    # (a) the route of each case and what to distrust
+    gate_section(report, gate or {}, list(hazard), None, surrogate, corrected)
     fidelity_summary(report, hazard)
-    report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>")
-    report.add("Scenes", *(figure(path, caption("scenes", set=name)) for name, path in scenes.items()))
-    model_section(report, surrogate, evaluation, learning_curve)
-    summary = pd.DataFrame(validation_summary)
+    # (b) the answer
+    for case, files in hazard.items():
+        if case in corrected:
+            best_estimate_section(report, case, files)
+        else:
+            monte_carlo_sections(report, case, files, "answer")
+    # (c) the evidence
+    for case, files in hazard.items():
+        if case in corrected:
+            evidence_section(report, case, files)
+        else:
+            monte_carlo_sections(report, case, files, "evidence")
+    # (d) the details, folded
     report.add(
-        "Validation against MPM",
+        "Details",
+        paragraph(
+            "Folded: open a heading to read it. The configuration, the scenes, the learned simulator and its "
+            "validation on the test cases (a report of the model: the best estimate above does not rest on it), "
+            "each case's correction in detail and its Monte Carlo map as its simulator drew it."
+        ),
+    )
+    report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>", folded=True)
+    report.add("Scenes", *(figure(path, caption("scenes", set=name)) for name, path in scenes.items()), folded=True)
+    model_section(report, surrogate, evaluation, learning_curve, folded=True)
+    report.add(
+        "Validation against MPM on the test cases (the validation gate's table)",
         table(validation_table),
-        table(summary),
+        table(pd.DataFrame(validation_summary)),
         figure(validation_figures["histograms"], caption("histograms")),
         figure(validation_figures["parity"], caption("parity")),
         *(
@@ -538,7 +800,9 @@ def build_report(
             for name, path in validation_figures.items()
             if name not in ("histograms", "parity")
         ),
+        folded=True,
     )
-    for case, files in hazard.items():
-        hazard_sections(report, case, files)
+    for case in corrected:
+        correction_details(report, case, hazard[case])
+        monte_carlo_sections(report, case, hazard[case], "details")
     return report.html()

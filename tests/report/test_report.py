@@ -1,6 +1,9 @@
 """The report's top: every gate verdict, the route of each Monte Carlo case, what made the page."""
 
+import re
+
 import pandas as pd
+import pytest
 
 from rgns.report.page import Report, _runout_line, gate_section, provenance_line, routes
 
@@ -101,3 +104,206 @@ def test_the_headline_says_where_the_runs_leave_a_distances_interval_open():
     assert "do not bound the interval of the runout exceeded with P 0.01" in line and "P 0.5" not in line
     line, _ = _runout_line("case1", runout_record({"0.5": closed, "0.1": closed}))
     assert "do not bound" not in line
+
+
+def synthetic_record(converged: bool, pair_validation: bool) -> dict:
+    """A case's multifidelity.json with what the page reads: means, two exceedance distances, zones, costs, the
+    plan of the pairs; with ``converged`` the mesh extrapolation's chain, with ``pair_validation`` the pairs'
+    validation as rgns.fidelity.pair_validation returns it."""
+    means = {
+        key: {"estimate": 1.1 * v, "lower": v, "upper": 1.2 * v, "low_mean": 0.9 * v, "bias": -0.1, "correlation": 0.95}
+        for key, v in (("runout_m", 9.0), ("volume_m2", 40.0), ("influence_m", 4.0))
+    }
+    record: dict = {
+        "n_low": 64,
+        "n_paired": 16,
+        "high_cell_size_m": 0.5,
+        "cheap_route": "the Monte Carlo's simulator",
+        "confidence": 0.95,
+        "cost": {"low_s": 0.2, "high_s": 20.0},
+        "means": means,
+        "exceedance": {
+            "runout_m": {
+                "d_m": [0.0, 5.0, 10.0, 15.0],
+                "lower": [1.0, 0.6, 0.05, 0.0],
+                "upper": [1.0, 0.9, 0.3, 0.0],
+                "distances": {"0.5": {"uncorrected": 8.0, "corrected": 9.0, "simulator": 8.0}},
+            }
+        },
+        "zoning": {"zones_corrected": [{"level": "low", "x_from_m": 0.0, "x_to_m": 60.0}]},
+        "allocation": {"correlation_runout": 0.95, "optimal_ratio": 6.0, "speedup_at_equal_error": 3.0},
+        "cheap_is_simulator": True,
+        "simulator_means": {key: m["low_mean"] for key, m in means.items()},
+        "plan": {"bounds_m": [[0.0, 8.0], [8.0, 20.0]], "sizes": [48, 16], "pairs": [8, 8], "n_paired": 16},
+    }
+    if converged:
+        step = {"mesh_step": 0.8, "mesh_step_range": [0.6, 1.2]}
+        record["converged"] = {
+            "order": {key: [1.0, 1.3, 1.6] for key in means},
+            "n_pairs": 16,
+            "coarse_cell_size_m": 1.0,
+            "means": {
+                key: {
+                    "cheap_mean": m["low_mean"],
+                    "accurate": m["estimate"],
+                    "accurate_lower": m["lower"],
+                    "accurate_upper": m["upper"],
+                    **step,
+                    "estimate": m["estimate"] + 0.8,
+                    "lower": m["lower"] + 0.6,
+                    "upper": m["upper"] + 1.2,
+                }
+                for key, m in means.items()
+            },
+            "distances": {
+                "runout_m": {
+                    "0.5": {
+                        "accurate": 9.0,
+                        "accurate_band": [8.0, 10.0],
+                        **step,
+                        "estimate": 9.8,
+                        "lower": 8.6,
+                        "upper": 11.2,
+                    }
+                }
+            },
+            "zoning": {
+                "front_step_m": 0.8,
+                "front_step_range_m": [0.6, 1.2],
+                "rear_step_m": -0.3,
+                "rear_step_range_m": [-0.5, -0.2],
+                "zones": [{"level": "moderate", "x_from_m": 0.0, "x_to_m": 60.0}],
+            },
+        }
+    if pair_validation:
+        record["pair_validation"] = {
+            key: {
+                "n": 16,
+                "r2": [0.952, 0.875, 1.0],
+                "nrmse": [0.061, 0.04, 0.09],
+                "bias": [-0.123, -0.2, -0.05],
+                "relative_bias": [-0.01, -0.02, -0.005],
+            }
+            for key in means
+        }
+    return record
+
+
+def synthetic_page(tmp_path, record: dict | None) -> str:
+    """build_report over one Monte Carlo case with ``record`` (None: no multi-fidelity correction) and
+    stand-in figures (any bytes inline)."""
+    import json
+
+    from rgns.report.page import build_report
+
+    png = tmp_path / "figure.png"
+    png.write_bytes(b"\x89PNG stand-in")
+    case = tmp_path / "case1"
+    case.mkdir()
+    if record is not None:
+        (case / "multifidelity.json").write_text(json.dumps(record))
+    (case / "exceedance.json").write_text(
+        json.dumps(
+            {
+                "n": 64,
+                "not_ok": 0,
+                "screened": 0,
+                "metrics": {
+                    "runout distance R": {
+                        "deterministic_m": 8.0,
+                        "distances": [
+                            {"probability": 0.5, "distance_m": 8.0, "lower_m": 7.5, "upper_m": 8.5, "note": ""}
+                        ],
+                    }
+                },
+            }
+        )
+    )
+    (case / "convergence.json").write_text(
+        json.dumps({"criterion": "the running mean within 2 %", "metrics": {"runout": {"converged_at": 40, "n": 64}}})
+    )
+    (case / "zoning.json").write_text(json.dumps({"zones": [{"level": "low", "x_from_m": 0.0, "x_to_m": 60.0}]}))
+    figures = ("exceedance.png", "convergence.png", "zoning.png") + (() if record is None else ("multifidelity.png",))
+    files = {p.name: p for p in case.iterdir()} | {name: png for name in figures}
+    return build_report(
+        title="r",
+        overview={"the_configuration_dump": 1},
+        scenes={"case1": png},
+        learning_curve=png,
+        evaluation={"steps": 10, "valid_loss": 0.01, "valid_mean_predictor_loss": 0.1},
+        validation_table=pd.DataFrame({"case": ["case1"], "metric": ["runout"], "gns_mean": [9.0]}),
+        validation_summary=[{"case": "case1", "realizations": 16, "diverged": 0}],
+        validation_figures={"histograms": png, "parity": png, "energy_case1": png},
+        hazard={"case1": files},
+        gate=GATE,
+        surrogate="endstate",
+        made={"version": "0.1.0", "commit": "0123456789", "config_digest": "abcdef012345", "made_utc": "now"},
+    )
+
+
+@pytest.mark.parametrize("converged", [False, True])
+def test_the_page_leads_with_the_best_estimate_and_folds_the_details(tmp_path, converged):
+    """Provenance and the gate's warnings first, then the best estimate (its figure and one table), the
+    evidence (the pairs' validation, the allocation, what the intervals hold), then the configuration and the
+    rest folded in <details>; every figure once."""
+    page = synthetic_page(tmp_path, synthetic_record(converged, pair_validation=True))
+    lead = page.split("<h2>")[0]
+    assert "Made by rgns 0.1.0" in lead and "case1: end-state surrogate (passed its gate)" in lead
+    assert page.split("<h2>")[1].startswith("Validation gate")
+    best = page.index("the best estimate</h2>")
+    order = [
+        page.index("<h2>Validation gate</h2>"),
+        best,
+        page.index("= best estimate", best),  # the one table of the best estimate
+        page.index("<h3>The pairs&#x27; validation</h3>"),
+        page.index("<h3>The allocation</h3>"),
+        page.index("<h3>What the intervals hold</h3>"),
+        page.index("<h2>Details</h2>"),
+        page.index("the_configuration_dump"),
+        page.index("Hazard: case1 — exceedance (uncorrected"),
+    ]
+    assert order == sorted(order)
+    assert page.index("= best estimate") < page.index("<pre>")
+    assert page.count("= best estimate</th>") == 1  # one table of the best estimate, not three
+    configuration = re.search(r"<details><summary>Configuration</summary>\s*<pre>(.*?)</pre>\s*</details>", page, re.S)
+    assert configuration and "the_configuration_dump" in configuration.group(1)
+    assert "<details open" not in page  # folded by default
+    for folded in (
+        "Scenes",
+        "End-state surrogate",
+        "Validation against MPM on the test cases",
+        "Hazard: case1 — the multi-fidelity correction in detail",
+        "Hazard: case1 — exceedance (uncorrected",
+        "Hazard: case1 — convergence (uncorrected",
+        "Hazard: case1 — zoning (uncorrected",
+    ):
+        assert f"<details><summary>{folded}" in page, folded
+    assert page.count("<img") == 1 + 1 + 3 + 4  # scenes, learning curve, validation, hazard: each once
+    # the pairs' validation: n, R² and bias with their intervals, NRMSE, per metric, and what they are
+    evidence = page[page.index("<h3>The pairs&#x27; validation</h3>") : page.index("<h3>The allocation</h3>")]
+    assert evidence.count("<td>0.952 [0.875, 1.000]</td>") == 3 and "<td>-0.123 [-0.200, -0.050]</td>" in evidence
+    assert "<td>0.061</td>" in evidence and "<td>16</td>" in evidence
+    assert "this case&#x27;s own 16 paired realizations" in evidence and "weighted by the design" in evidence
+    # the plan of the pairs as a small table
+    allocation = page[page.index("<h3>The allocation</h3>") : page.index("<h3>What the intervals hold</h3>")]
+    assert "<td>pairs</td>" in allocation and "<td>[8, 8]</td>" in allocation
+
+
+def test_without_a_pair_validation_in_the_record_the_page_has_no_such_table(tmp_path):
+    page = synthetic_page(tmp_path, synthetic_record(converged=False, pair_validation=False))
+    assert "The pairs&#x27; validation" not in page and "R² [lower, upper]" not in page
+    assert "<h3>The allocation</h3>" in page and page.index("= best estimate") < page.index("<pre>")
+
+
+def test_a_case_without_a_correction_answers_with_its_own_map_unfolded(tmp_path):
+    """No multifidelity.json: the Monte Carlo's own exceedance and zoning are the answer, its convergence the
+    evidence, none of them folded or called uncorrected."""
+    page = synthetic_page(tmp_path, None)
+    order = [
+        page.index("<h2>Hazard: case1 — exceedance</h2>"),
+        page.index("<h2>Hazard: case1 — zoning</h2>"),
+        page.index("<h2>Hazard: case1 — convergence</h2>"),
+        page.index("<h2>Details</h2>"),
+    ]
+    assert order == sorted(order) and "uncorrected" not in page and "Multi-fidelity check" not in page
+    assert page.count("<img") == 1 + 1 + 3 + 3
