@@ -313,11 +313,10 @@ def _montecarlo_errors(config: dict[str, Any]) -> list[str]:
             f"config key 'montecarlo.fidelity.paired' = {fidelity['paired']!r}: 0 (off) or between 2 "
             f"and montecarlo.realizations = {section['realizations']}"
         )
-    cap = fidelity["max_paired"]
-    if cap is not None and not fidelity["paired"] <= cap <= section["realizations"]:
+    if fidelity["paired"] and 2 * (len(fidelity["strata"]) + 1) > fidelity["paired"]:
         errors.append(
-            f"config key 'montecarlo.fidelity.max_paired' = {cap!r}: between montecarlo.fidelity.paired = "
-            f"{fidelity['paired']} and montecarlo.realizations = {section['realizations']}"
+            f"config key 'montecarlo.fidelity.paired' = {fidelity['paired']!r}: fewer than 2 pairs for each of the "
+            f"{len(fidelity['strata']) + 1} strata of montecarlo.fidelity.strata"
         )
     if fidelity["paired"] and fidelity["high_cell_size_m"] >= config["mesh"]["cell_size_m"]:
         errors.append(

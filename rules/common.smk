@@ -164,45 +164,30 @@ def mc_run_params(wildcards):
     }
 
 
-# with montecarlo.fidelity.target_half_width_m the pairs are chosen by checkpoint paired_plan
-ADAPTIVE_PAIRS = bool(config["montecarlo"]["fidelity"]["paired"] and config["montecarlo"]["fidelity"]["target_half_width_m"])
-
-
 def mc_paired_chunk_ids(case):
-    """Chunk ids holding the first montecarlo.fidelity.paired realizations (the pilot, when adaptive)."""
-    section = config["montecarlo"]
-    return [f"{k:03d}" for k in range(-(-section["fidelity"]["paired"] // section["chunk_size"]))]
+    """Chunk ids of a case's paired realizations (montecarlo.fidelity.paired, in chunks of fidelity.chunk_size)."""
+    fidelity = config["montecarlo"]["fidelity"]
+    return [f"{k:03d}" for k in range(-(-fidelity["paired"] // fidelity["chunk_size"]))]
 
 
 def mc_paired_chunk_indices(wildcards):
-    """Realization indices of one paired chunk: the chunk's, among the first `paired` (whole chunks when
-    the pairs are chosen adaptively)."""
-    section = config["montecarlo"]
-    limit = section["realizations"] if ADAPTIVE_PAIRS else section["fidelity"]["paired"]
-    return [i for i in mc_chunk_indices(wildcards) if i < limit]
-
-
-def mc_paired_pilot_chunks(wildcards):
-    return [f"results/mc/{wildcards.case}/paired/chunk_{k}.csv" for k in mc_paired_chunk_ids(wildcards.case)]
+    """Where the paired chunk's realizations come from: its place in the list rule paired_plan chose."""
+    return {"chunk": int(wildcards.chunk), "chunk_size": config["montecarlo"]["fidelity"]["chunk_size"]}
 
 
 def mc_paired_chunks(wildcards):
-    """Every paired chunk of a case: the fixed count, or as many as checkpoint paired_plan decided."""
-    if not ADAPTIVE_PAIRS:
-        return mc_paired_pilot_chunks(wildcards)
-    plan = json.loads(Path(checkpoints.paired_plan.get(case=wildcards.case).output[0]).read_text())
-    return [f"results/mc/{wildcards.case}/paired/chunk_{k:03d}.csv" for k in range(plan["chunks"])]
+    """Every paired chunk of a case."""
+    return [f"results/mc/{wildcards.case}/paired/chunk_{k}.csv" for k in mc_paired_chunk_ids(wildcards.case)]
 
 
 def mc_paired_plan(wildcards):
-    return [f"results/mc/{wildcards.case}/paired_plan.json"] if ADAPTIVE_PAIRS else []
+    return [f"results/mc/{wildcards.case}/paired_plan.json"]
 
 
 def paired_plan_params(wildcards):
-    section = config["montecarlo"]
-    return {key: section["fidelity"][key] for key in ("target_half_width_m", "max_paired")} | {
-        "realizations": section["realizations"], "chunk_size": section["chunk_size"],
-        "confidence": config["hazard"]["confidence"]}
+    """What choosing the pairs depends on: how many, the strata, their floor, the seed."""
+    fidelity = config["montecarlo"]["fidelity"]
+    return {key: fidelity[key] for key in ("paired", "strata", "min_per_stratum")} | {"seed": config["seed"]}
 
 
 def mc_paired_case_params(wildcards):
@@ -261,7 +246,7 @@ def multifidelity_params(wildcards):
         "cheap_route": CHEAP_ROUTE,
         "coarse_cell_size_m": config["mesh"]["cell_size_m"],
         "high_benchmark_pattern": f"results/mc/{case}/paired/chunk_{{chunk:03d}}.benchmark.tsv",
-        "chunk_size": config["montecarlo"]["chunk_size"],
+        "chunk_size": config["montecarlo"]["fidelity"]["chunk_size"],
     }
 
 
@@ -271,9 +256,10 @@ def mc_model(wildcards):
 
 
 def mc_gate(wildcards):
-    """The validation gate's verdicts, when a learned simulator is the Monte Carlo's: a case it
-    fails runs MPM (or stops), by validation.acceptance.on_failure."""
-    return ["results/report/validation/gate.json"] if config["montecarlo"]["simulator"] != "mpm" else []
+    """The validation gate's verdicts, when a learned simulator is the Monte Carlo's and
+    validation.acceptance.on_failure is stop (a case it fails stops); with report it decides nothing."""
+    stop = config["validation"]["acceptance"]["on_failure"] == "stop"
+    return ["results/report/validation/gate.json"] if stop and config["montecarlo"]["simulator"] != "mpm" else []
 
 
 def mc_chunks(wildcards):

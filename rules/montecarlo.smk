@@ -64,11 +64,12 @@ rule mc_collect:
 
 
 rule mc_paired_chunk:
-    """The chunk's realizations among the first montecarlo.fidelity.paired, by the MPM at the accurate
-    mesh (the same geometry and field): the high-fidelity half of the multi-fidelity pairs."""
+    """The chunk's realizations of those paired_plan chose, by the MPM at the accurate mesh (the same geometry
+    and field): the high-fidelity half of the multi-fidelity pairs."""
     input:
         model=[],
         gate=[],
+        plan="results/mc/{case}/paired_plan.json",
     output:
         "results/mc/{case}/paired/chunk_{chunk}.csv",
     params:
@@ -95,6 +96,7 @@ rule mc_coarse_chunk:
     input:
         model=[],
         gate=[],
+        plan="results/mc/{case}/paired_plan.json",
     output:
         "results/mc/{case}/paired_coarse/chunk_{chunk}.csv",
     params:
@@ -160,27 +162,23 @@ rule mc_control_collect:
 rule mc_coarse_collect:
     """Concatenate a case's coarse paired chunk tables (the same chunks as mc_paired_collect's)."""
     input:
-        mc_coarse_chunks,
+        chunks=mc_coarse_chunks,
+        plan="results/mc/{case}/paired_plan.json",
     output:
         "results/mc/{case}/paired_coarse.csv",
-    params:
-        realizations=None if ADAPTIVE_PAIRS else config["montecarlo"]["fidelity"]["paired"],
-        limit=config["montecarlo"]["realizations"],
-        chunk_size=config["montecarlo"]["chunk_size"],
     log:
         "logs/mc_coarse_collect/{case}.log",
     conda:
         "../envs/rgns.yaml"
     script:
-        "../workflow/scripts/mc_collect.py"
+        "../workflow/scripts/mc_paired_collect.py"
 
 
-checkpoint paired_plan:
-    """With montecarlo.fidelity.target_half_width_m: how many realizations to pair, in whole chunks, from
-    the pilot pairs' spread and correlation and the cheap Monte Carlo (rgns.fidelity.outputs.plan_pairs)."""
+rule paired_plan:
+    """Which realizations the MPM re-runs: strata of the cheap route's runout, pairs allocated over them (more
+    in the tail) and drawn at random within each (rgns.fidelity.pair_design)."""
     input:
         realizations=CHEAP_TABLE,
-        pilot=mc_paired_pilot_chunks,
     output:
         "results/mc/{case}/paired_plan.json",
     params:
@@ -194,21 +192,18 @@ checkpoint paired_plan:
 
 
 rule mc_paired_collect:
-    """Concatenate a case's paired chunk tables (as many as paired_plan chose, when it chooses)."""
+    """Concatenate a case's paired chunk tables, checked against the plan."""
     input:
-        mc_paired_chunks,
+        chunks=mc_paired_chunks,
+        plan="results/mc/{case}/paired_plan.json",
     output:
         "results/mc/{case}/paired.csv",
-    params:
-        realizations=None if ADAPTIVE_PAIRS else config["montecarlo"]["fidelity"]["paired"],
-        limit=config["montecarlo"]["realizations"],
-        chunk_size=config["montecarlo"]["chunk_size"],
     log:
         "logs/mc_paired_collect/{case}.log",
     conda:
         "../envs/rgns.yaml"
     script:
-        "../workflow/scripts/mc_collect.py"
+        "../workflow/scripts/mc_paired_collect.py"
 
 
 rule multifidelity:

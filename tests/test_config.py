@@ -103,9 +103,9 @@ BAD = [
     (
         ("montecarlo", "fidelity", "paired"),
         1,
-        r"'montecarlo.fidelity.paired' = 1: 0 \(off\) or between 2 and montecarlo.realizations = 256",
+        r"'montecarlo.fidelity.paired' = 1: 0 \(off\) or between 2 and montecarlo.realizations = 10000",
     ),
-    (("montecarlo", "fidelity", "paired"), 257, r"'montecarlo.fidelity.paired' = 257: 0 \(off\) or between 2"),
+    (("montecarlo", "fidelity", "paired"), 10001, r"'montecarlo.fidelity.paired' = 10001: 0 \(off\) or between 2"),
     (
         ("montecarlo", "fidelity", "high_cell_size_m"),
         1.0,

@@ -14,15 +14,13 @@ from conftest import REPO, TINY_CONFIG
 from workflow_helpers import scheduled, snakemake, write_config
 
 from rgns.config import load_config, load_yaml
-from rgns.engines.batch import simulate_mpm
-from rgns.engines.metrics import MetricSettings, crest_x, runout_metrics
 from rgns.scene.fields import read_field
 from rgns.scene.geometry import read_scene
 from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.scene.sets import format_id
 from rgns.surrogates.endstate.data import read_end_states
 from rgns.tables import read_csv
-from rgns.trajectories import frame_count, read_packed, read_trajectory
+from rgns.trajectories import read_packed, read_trajectory
 
 pytestmark = pytest.mark.workflow
 
@@ -194,15 +192,17 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
         r"prefix\) on \d{4}-\d\d-\d\d \d\d:\d\d UTC\. Monte Carlo: case1: ",
         lead,
     ), lead[-600:]
-    # the first `paired` realizations again by the MPM at 0.5 m cells: the same field, a finer mesh
+    # the realizations paired_plan drew again by the MPM at 0.5 m cells: the same field, a finer mesh
+    plan = json.loads((results / "mc" / "case1" / "paired_plan.json").read_text())
     paired = read_csv(results / "mc" / "case1" / "paired.csv")
-    assert list(paired["index"]) == [0, 1] and (paired["n_particles"] == 4 * 120).all()
+    assert list(paired["index"]) == plan["indices"] and len(plan["indices"]) == 2
+    assert (paired["n_particles"] == 4 * 120).all()
     multifidelity = json.loads((results / "report" / "case1" / "multifidelity.json").read_text())
     assert (multifidelity["n_paired"], multifidelity["n_low"]) == (2, 6)
     assert multifidelity["cost"]["high_s"] > multifidelity["cost"]["low_s"] > 0
     # and once more by the MPM at the Monte Carlo's 1 m mesh: the coarse level of the mesh extrapolation
     coarse = read_csv(results / "mc" / "case1" / "paired_coarse.csv")
-    assert list(coarse["index"]) == [0, 1] and (coarse["n_particles"] == 120).all()
+    assert list(coarse["index"]) == plan["indices"] and (coarse["n_particles"] == 120).all()
     extrapolated = multifidelity["converged"]
     assert extrapolated["n_pairs"] == 2 and extrapolated["order"] == config["montecarlo"]["fidelity"]["mesh_order"]
     runout = extrapolated["means"]["runout_m"]
@@ -212,31 +212,30 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     assert "Not carried to the converged mesh (no convergence order measured" in page.split("Configuration</h2>")[0]
 
 
-def test_a_target_half_width_pairs_the_chunks_the_checkpoint_chose_and_keeps_the_pilot(built, tmp_path):
-    """montecarlo.fidelity.target_half_width_m: paired_plan reads the pilot pairs and the cheap runs, and
-    mc_paired_collect then waits for the chunks it chose (here the cap: a target no run could reach)."""
+def test_strata_pair_the_realizations_the_plan_drew_in_each_and_weigh_them(built, tmp_path):
+    """montecarlo.fidelity.strata: paired_plan cuts the cheap runs at the cheap runout's median and draws 2
+    pairs in each half; the paired tables hold exactly those, and the correction records the design."""
     workdir = tmp_path / "tiny"
     shutil.copytree(built[0], workdir, symlinks=True)
     config = copy.deepcopy(built[1])
-    config["montecarlo"]["fidelity"] = {"paired": 2, "target_half_width_m": 0.001, "max_paired": 4}
-    pilot = workdir / "results" / "mc" / "case1" / "paired" / "chunk_000.csv"
-    before = pilot.stat().st_mtime_ns
+    config["montecarlo"]["fidelity"] = {"paired": 4, "strata": [0.5], "min_per_stratum": 2}
     result = snakemake(
         workdir,
         "--cores",
         "2",
         "results/report/case1/multifidelity.json",
-        config=write_config(tmp_path / "target.yaml", config),
+        config=write_config(tmp_path / "strata.yaml", config),
     )
     assert result.returncode == 0, result.stderr
     plan = json.loads((workdir / "results" / "mc" / "case1" / "paired_plan.json").read_text())
-    assert (plan["pilot"], plan["n_low"], plan["chunks"], plan["n_paired"], plan["cap"]) == (2, 6, 2, 4, 4)
-    assert not plan["reached"] and plan["predicted_half_width_m"] > 0.001
+    assert plan["sizes"] == [3, 3] and plan["pairs"] == [2, 2]
+    strata = dict(zip(plan["realizations"], plan["strata"]))
+    assert [strata[i] for i in plan["indices"]] == [0, 0, 1, 1]
     paired = read_csv(workdir / "results" / "mc" / "case1" / "paired.csv")
-    assert list(paired["index"]) == [0, 1, 2, 3] and (paired["n_particles"] == 4 * 120).all()
+    assert list(paired["index"]) == plan["indices"] and (paired["n_particles"] == 4 * 120).all()
     record = json.loads((workdir / "results" / "report" / "case1" / "multifidelity.json").read_text())
-    assert record["n_paired"] == 4 and record["plan"] == plan and record["cost"]["high_s"] > 0
-    assert pilot.stat().st_mtime_ns == before  # the pilot pairs were not run again
+    assert record["n_paired"] == 4 and record["plan"]["pairs"] == [2, 2] and record["cost"]["high_s"] > 0
+    assert record["pair_validation"]["runout_m"]["n"] == 4
 
 
 def test_changing_a_zoning_threshold_reruns_only_zoning_and_the_report(built, tmp_path):
@@ -313,10 +312,11 @@ def test_jobs_ask_their_scheduler_for_a_gpu_exactly_when_their_device_is_cuda(tm
     assert default["mc_chunk"] == {"0"} and "train" not in default  # the shipped model: nothing to train
 
 
-def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_path):
-    """The tiny 400-step model against an R² of 0.99: by default the Monte Carlo runs MPM on the same
-    realizations and the report says so at its top; with on_failure stop the chunks fail naming the
-    case and metric, and nothing already computed is lost."""
+def test_the_gate_reports_a_failed_model_or_stops_when_told(built, tmp_path):
+    """The tiny 400-step model against an R² of 0.99: by default (on_failure report) the verdict is printed at
+    the top of the report and decides nothing — the Monte Carlo runs the learned simulator, corrected by the
+    case's MPM pairs, and no rule runs the Monte Carlo on the MPM; with on_failure stop the chunks fail naming
+    the case and metric, and nothing already computed is lost."""
     workdir, config = built
     copy_dir = tmp_path / "strict"
     shutil.copytree(workdir, copy_dir)
@@ -329,30 +329,11 @@ def test_the_gate_falls_back_to_mpm_or_stops_when_the_model_fails_it(built, tmp_
     result = snakemake(copy_dir, "--cores", "2", "hazard_map", config=path)
     assert result.returncode == 0, result.stderr
     gate = json.loads((copy_dir / "results" / "report" / "validation" / "gate.json").read_text())
-    assert not gate["case1"]["passed"] and gate["case1"]["simulator"] == "mpm"
+    assert not gate["case1"]["passed"] and gate["case1"]["simulator"] == "gns"
     table = read_csv(copy_dir / "results" / "mc" / "case1" / "realizations.csv")
-    assert (table["simulator"] == "mpm").all()
-    # the fallback's rows are the embedded MPM's runs of the Monte Carlo's own realizations
-    full = load_config(path)
-    inputs = CaseInputs.from_config(full, "case1")
-    batch = [draw_realization(inputs, index) for index in (0, 1)]
-    runs = simulate_mpm(
-        batch, full["mpm"], frame_count(full["mpm"]["duration_s"], full["mpm"]["frame_interval_s"]), keep="ends"
-    )
-    for realization, run in zip(batch, runs):
-        expected = runout_metrics(
-            realization.scene.positions,
-            run.positions[-1],
-            realization.scene.volumes,
-            crest_x(realization.scene.vertices),
-            MetricSettings(**full["metrics"]),
-        )
-        row = table.loc[table["index"] == realization.index].iloc[0]  # (positions kept in float32: 1e-3 m)
-        assert row["runout_m"] == pytest.approx(expected.runout_m, abs=1e-3) and expected.runout_m > 0
+    assert (table["simulator"] == "gns").all()
     page = (copy_dir / "results" / "report" / "report.html").read_text()
-    top = page.split("<h2>")[1]
-    assert top.startswith("Validation gate") and "FAILED the validation gate" in top and "run by MPM" in top
-    assert "Monte Carlo: case1: MPM (the GNS failed its gate)." in page.split("<h2>")[0]
+    assert "FAILED the validation gate" in page.split("Configuration</h2>")[0]
 
     strict["validation"]["acceptance"]["on_failure"] = "stop"
     for chunk in (copy_dir / "results" / "mc" / "case1").glob("chunk_*.csv"):

@@ -14,7 +14,6 @@ come from the Snakemake benchmark files of the chunks.
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -33,14 +32,15 @@ from rgns.fidelity.multifidelity import (
     allocate,
     control_variate,  # noqa: E402
     corrected_affected_probability,
+    design_weights,
     distance_at,
-    optimal_ratio,
-    pairs_for_half_width,
-    predicted_half_width,
     rearranged,
     regression_control_variate,
-    speedup,
+    route,
+    weighted_std,
 )
+from rgns.fidelity.pair_design import row_strata  # noqa: E402
+from rgns.fidelity.pair_validation import pair_validation  # noqa: E402
 from rgns.hazard.statistics import ZONE_LEVELS, exceedance_distances, zone_levels, zones  # noqa: E402
 from rgns.scene.realizations import FINISHED  # noqa: E402
 
@@ -89,11 +89,18 @@ def _estimate_record(estimate: ControlVariateEstimate) -> dict[str, Any]:
 
 
 def correct(
-    low: pd.DataFrame, high: pd.DataFrame, settings: dict[str, Any], cost: dict[str, float], seed: int = 0
+    low: pd.DataFrame,
+    high: pd.DataFrame,
+    settings: dict[str, Any],
+    cost: dict[str, float],
+    seed: int = 0,
+    design: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Every corrected quantity of one case, with the uncorrected ones beside it."""
+    """Every corrected quantity of one case, with the uncorrected ones beside it; ``design``: the pairs'
+    stratified design (rgns.fidelity.pair_design; None: a simple random subsample)."""
     low, high = paired_rows(low, high)
     n, confidence = len(high), settings["confidence"]
+    strata = row_strata(design, low["index"].tolist(), n)
     record: dict[str, Any] = {
         "n_low": len(low),
         "n_paired": n,
@@ -105,12 +112,14 @@ def correct(
         "exceedance": {},
     }
     for key in METRICS:
-        estimate = control_variate(high[[key]].to_numpy(float), low[[key]].to_numpy(float), confidence, seed=seed)
+        estimate = control_variate(
+            high[[key]].to_numpy(float), low[[key]].to_numpy(float), confidence, seed=seed, strata=strata
+        )
         record["means"][key] = {name: value[0] for name, value in _estimate_record(estimate).items()}
     for key in CURVES:
         d_m = distance_grid(pd.concat([low[key], high[key]]).to_numpy(float))
         estimate = regression_control_variate(
-            high[key].to_numpy(float), low[key].to_numpy(float), d_m, confidence=confidence, seed=seed
+            high[key].to_numpy(float), low[key].to_numpy(float), d_m, confidence=confidence, seed=seed, strata=strata
         )
         corrected, uncorrected = rearranged(estimate.estimate), estimate.low_mean  # low_mean: over all N
         record["exceedance"][key] = {
@@ -131,10 +140,20 @@ def correct(
         low[["front_x_m", "rear_x_m"]].to_numpy(float),
     )
     estimate = regression_control_variate(
-        ends_high, ends_low, x_m, signs=[1.0, -1.0], inclusive=[True, False], confidence=confidence, seed=seed
+        ends_high,
+        ends_low,
+        x_m,
+        signs=[1.0, -1.0],
+        inclusive=[True, False],
+        confidence=confidence,
+        seed=seed,
+        strata=strata,
     )
-    probability, uncorrected = corrected_affected_probability(ends_high, ends_low, x_m), estimate.low_mean
+    probability, uncorrected = corrected_affected_probability(ends_high, ends_low, x_m, strata), estimate.low_mean
     thresholds = settings["thresholds"]
+    w = design_weights(strata, n, len(low))[:, None]
+    labels = np.zeros(n, dtype=int) if strata is None else strata[:n]
+    record["pair_validation"] = pair_validation(high, low.iloc[:n], w[:, 0], labels, confidence, seed=seed)
     record["zoning"] = {
         "x_m": x_m.tolist(),
         "uncorrected": uncorrected.tolist(),
@@ -147,17 +166,13 @@ def correct(
     }
     runout = record["means"]["runout_m"]
     rho = float(np.nan_to_num(runout["correlation"]))
-    record["allocation"] = {
-        "correlation_runout": rho,
-        "optimal_ratio": optimal_ratio(cost["high_s"], cost["low_s"], rho),
-        "speedup_at_equal_error": speedup(cost["high_s"], cost["low_s"], rho),
-    }
+    record["allocation"] = route(cost["high_s"], cost["low_s"], rho)
     if settings.get("target_half_width_m"):
         plan = allocate(
             cost["high_s"],
             cost["low_s"],
             rho,
-            float(high["runout_m"].std(ddof=1)),
+            weighted_std(high["runout_m"].to_numpy(float), w[:, 0]),
             settings["target_half_width_m"],
             confidence,
         )
@@ -239,36 +254,17 @@ def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
     plt.close(fig)
 
 
-def plan_pairs(low: pd.DataFrame, pilot: pd.DataFrame, settings: dict[str, Any]) -> dict[str, Any]:
-    """How many realizations to pair for ``target_half_width_m`` on the mean runout, in whole chunks: from
-    the pilot pairs' std and correlation and the N cheap runs (:func:`pairs_for_half_width`), at least
-    the pilot and at most ``max_paired`` (``realizations`` when null) rounded up to a whole chunk."""
-    low_rows, high_rows = paired_rows(low, pilot)
-    high_r = high_rows["runout_m"].to_numpy(float)
-    low_r = low_rows["runout_m"].to_numpy(float)[: len(high_r)]
-    std = float(high_r.std(ddof=1))
-    rho = float(np.corrcoef(high_r, low_r)[0, 1]) if std > 0 and low_r.std() > 0 else 0.0
-    target, confidence = settings["target_half_width_m"], settings["confidence"]
-    needed = pairs_for_half_width(std, rho, len(low_rows), target, confidence)
-    realizations, chunk = settings["realizations"], settings["chunk_size"]
-    cap = settings["max_paired"] or realizations
-    wanted = min(max(len(pilot), math.ceil(needed) if math.isfinite(needed) else cap), cap)
-    chunks = -(-wanted // chunk)
-    n_paired = min(chunks * chunk, realizations)
-    half_width = predicted_half_width(std, rho, n_paired, len(low_rows), confidence)
-    return {
-        "target_half_width_m": target,
-        "pilot": len(pilot),
-        "n_low": len(low_rows),
-        "std_m": std,
-        "correlation": rho,
-        "needed": needed if math.isfinite(needed) else None,
-        "cap": cap,
-        "chunks": chunks,
-        "n_paired": n_paired,
-        "predicted_half_width_m": half_width,
-        "reached": bool(half_width <= target + 1e-12),
-    }
+def simulator_validation(
+    simulator: pd.DataFrame, coarse: pd.DataFrame, design: dict[str, Any] | None, confidence: float
+) -> dict[str, dict[str, Any]]:
+    """The Monte Carlo's simulator against the MPM at its own mesh on the case's pairs (the paper's Table 3,
+    on the realizations the map is drawn from), weighted by the pairs' design."""
+    simulator_rows, coarse_rows = paired_rows(simulator, coarse)
+    n = len(coarse_rows)
+    strata = row_strata(design, simulator_rows["index"].tolist(), n)
+    weights = design_weights(strata, n, len(simulator_rows))
+    labels = np.zeros(n, dtype=int) if strata is None else strata[:n]
+    return pair_validation(coarse_rows, simulator_rows.iloc[:n], weights, labels, confidence)
 
 
 def write_multifidelity(
@@ -282,12 +278,13 @@ def write_multifidelity(
     simulator: pd.DataFrame | None = None,
     coarse: pd.DataFrame | None = None,
 ) -> dict[str, Any]:
-    """Correct, then write the JSON (with the paired-run ``plan`` where one chose the pairs, the Monte
+    """Correct, then write the JSON (with the pairs' stratified design ``plan`` (rule paired_plan), the Monte
     Carlo's own means and curves: its ``simulator`` table where that is not the cheap route, and with the
-    pairs at the Monte Carlo's mesh, ``coarse``, the estimates at the converged mesh) and the figure."""
-    record = correct(low, high, settings, cost)
+    pairs at the Monte Carlo's mesh, ``coarse``, the estimates at the converged mesh and the simulator's
+    validation against them) and the figure."""
+    record = correct(low, high, settings, cost, design=plan)
     if coarse is not None and settings.get("mesh_order"):
-        record["converged"] = converged(low, high, coarse, settings, record)
+        record["converged"] = converged(low, high, coarse, settings, record, design=plan)
     record["levels"] = list(ZONE_LEVELS)
     own = simulator if simulator is not None else low
     record["cheap_is_simulator"] = simulator is None
@@ -300,8 +297,10 @@ def write_multifidelity(
         own_distances = exceedance_distances(values, [float(p) for p in curve["distances"]], confidence=0.95)
         for distances, own_distance in zip(curve["distances"].values(), own_distances):
             distances["simulator"] = own_distance.distance_m
+    if coarse is not None:
+        record["simulator_validation"] = simulator_validation(own, coarse, plan, settings["confidence"])
     if plan is not None:
-        record["plan"] = plan
+        record["plan"] = {key: plan[key] for key in ("bounds_m", "sizes", "pairs")} | {"n_paired": len(plan["indices"])}
     Path(outputs["json"]).write_text(json.dumps(record, indent=1, default=float) + "\n")
     plot(record, outputs["figure"], case)
     return record

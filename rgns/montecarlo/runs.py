@@ -167,10 +167,13 @@ def collect_chunks(paths: list[str], realizations: int, chunk_size: int) -> pd.D
     return pd.concat(tables, ignore_index=True).sort_values("index", kind="stable").reset_index(drop=True)
 
 
-def collect_whole_chunks(paths: list[str], chunk_size: int, limit: int) -> pd.DataFrame:
-    """:func:`collect_chunks` of chunks that are each whole, the last up to realization ``limit``
-    (the paired chunks a paired_plan chose)."""
-    return collect_chunks(paths, min(len(paths) * chunk_size, limit), chunk_size)
+def collect_listed(paths: list[str], indices: list[int]) -> pd.DataFrame:
+    """Chunk tables that together hold the listed realizations, in the list's order, chunk k its k-th share
+    (len(indices) / len(paths) rounded up), each checked to hold exactly those: one cut short, or left over
+    from another plan, is named."""
+    size = -(-len(indices) // max(1, len(paths)))
+    tables = [read_chunk(path, indices[k * size : (k + 1) * size], COLUMNS) for k, path in enumerate(paths)]
+    return pd.concat(tables, ignore_index=True)
 
 
 @dataclass

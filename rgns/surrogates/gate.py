@@ -7,9 +7,11 @@ interval (``validation.confidence``) at least ``r2_min`` where MPM has variance 
 otherwise), so that a point R² on a few pairs does not pass where the same R² on many would; and
 the mean signed error within ``relative_bias_max`` of the MPM mean; where the MPM mean is 0 (every
 realization stands) the GNS mean must be within one mesh cell (m, or m² for a volume) of it. The
-fraction of diverged rollouts must not exceed ``diverged_fraction_max``. A case that fails is
-either simulated by MPM instead (``on_failure: fallback``) or stops the Monte Carlo with the
-failures named (``stop``).
+fraction of diverged rollouts must not exceed ``diverged_fraction_max``. The verdict is a report of the
+model (``on_failure: report``, the default): the Monte Carlo runs the learned simulator whatever it says,
+because the MPM pairs of the multi-fidelity correction make its estimates unbiased for the MPM anyway (a
+poor model widens their intervals; rgns.fidelity). With ``stop`` a failed case stops its Monte Carlo with the
+failures named.
 """
 
 from __future__ import annotations
@@ -105,7 +107,7 @@ def judge(
             if problem:
                 failures.append(problem)
         passed = not failures
-        simulator = surrogate if passed or acceptance["on_failure"] == STOP else "mpm"
+        simulator = surrogate
         verdicts[str(case)] = Verdict(str(case), passed, failures, simulator, surrogate, evidence)
     return verdicts
 
@@ -123,8 +125,11 @@ def read_verdict(path: str | Path, case: str) -> Verdict:
 
 
 def simulator_for(path: str | Path, case: str) -> str:
-    """The simulator a case's Monte Carlo must run after the gate; raises GateError to stop it."""
+    """The simulator a case's Monte Carlo runs under ``on_failure: stop``; raises GateError to stop it."""
     verdict = read_verdict(path, case)
-    if verdict.passed or verdict.simulator == "mpm":
+    if verdict.passed:
         return verdict.simulator
-    raise GateError(f"{verdict.sentence()} (validation.acceptance.on_failure: stop; set it to fallback to run MPM)")
+    raise GateError(
+        f"{verdict.sentence()} (validation.acceptance.on_failure: stop; set it to report to run the surrogate, "
+        "corrected by the MPM pairs)"
+    )

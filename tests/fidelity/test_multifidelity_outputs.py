@@ -150,39 +150,3 @@ def test_corrected_zones_rise_to_one_maximum_and_fall():
         ranks = np.array([ZONE_LEVELS.index(zone["level"]) for zone in zoning["zones_corrected"]])
         top = int(np.argmin(ranks))  # 0 = extremely high
         assert np.all(np.diff(ranks[: top + 1]) < 0) and np.all(np.diff(ranks[top:]) > 0), (seed, ranks)
-
-
-PLAN = {"target_half_width_m": 0.5, "max_paired": None, "realizations": 200, "chunk_size": 16, "confidence": 0.95}
-
-
-def noisy_pair(rng: np.random.Generator, n: int, noise: float) -> tuple[np.ndarray, np.ndarray]:
-    accurate = rng.gamma(4.0, 2.0, n)
-    return accurate, accurate - 1.0 + rng.normal(0.0, noise, n)
-
-
-def test_the_plan_pairs_whole_chunks_until_the_predicted_half_width_reaches_the_target():
-    from scipy import stats
-
-    from rgns.fidelity.outputs import plan_pairs
-
-    accurate, cheap = noisy_pair(np.random.default_rng(7), 200, 1.0)
-    plan = plan_pairs(table(cheap), table(accurate[:16]), PLAN)
-    assert plan["pilot"] == 16 and plan["n_low"] == 200 and plan["reached"]
-    assert plan["n_paired"] % 16 == 0 and plan["n_paired"] >= plan["needed"] > plan["n_paired"] - 16
-    std, rho = plan["std_m"], plan["correlation"]
-    z = stats.norm.ppf(0.975)
-    at = lambda n: z * std * np.sqrt((1 - rho**2) / n + rho**2 / 200)  # noqa: E731
-    assert at(plan["n_paired"]) <= 0.5 < at(plan["n_paired"] - 16)  # the fewest whole chunks that reach it
-    loose = plan_pairs(table(cheap), table(accurate[:16]), PLAN | {"target_half_width_m": 5.0})
-    assert loose["n_paired"] == 16 and loose["reached"]  # the pilot already does
-
-
-def test_a_plan_beyond_the_cap_or_the_cheap_runs_says_so():
-    from rgns.fidelity.outputs import plan_pairs
-
-    accurate, cheap = noisy_pair(np.random.default_rng(8), 200, 1.0)
-    capped = plan_pairs(table(cheap), table(accurate[:16]), PLAN | {"max_paired": 20})
-    assert capped["n_paired"] == 32 and not capped["reached"] and capped["needed"] > 32  # the cap in whole chunks
-    # a perfectly correlated cheap route: the N cheap runs' own spread sets the floor, pairs cannot beat it
-    exact = plan_pairs(table(accurate - 1.0), table(accurate[:16]), PLAN | {"target_half_width_m": 0.05})
-    assert exact["needed"] is None and not exact["reached"] and exact["n_paired"] == 200  # every realization

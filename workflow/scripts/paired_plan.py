@@ -1,29 +1,32 @@
-"""Checkpoint paired_plan: how many realizations of a case to pair for the target half-width
-(rgns.fidelity.outputs.plan_pairs)."""
+"""Rule paired_plan: which of a case's realizations the MPM re-runs, stratified on the cheap route's runout
+(rgns.fidelity.pair_design)."""
 
 import json
 
-from rgns.fidelity.outputs import plan_pairs
+from rgns.fidelity.pair_design import design_pairs
 from rgns.logsetup import log_to_file
-from rgns.montecarlo.runs import collect_whole_chunks
+from rgns.scene.realizations import FINISHED
 from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])
 settings = snakemake.params.settings
-pilot = collect_whole_chunks(snakemake.input.pilot, settings["chunk_size"], settings["realizations"])
-plan = plan_pairs(read_csv(snakemake.input.realizations), pilot, settings)
+cheap = read_csv(snakemake.input.realizations)
+cheap = cheap[cheap["status"].isin(FINISHED)]
+design = design_pairs(
+    cheap["index"].to_numpy(),
+    cheap["runout_m"].to_numpy(float),
+    settings["paired"],
+    list(settings["strata"]),
+    settings["min_per_stratum"],
+    settings["seed"],
+)
 with open(snakemake.output[0], "w") as out:
-    json.dump(plan, out, indent=1)
+    json.dump(design.to_record(), out)
 log.info(
-    "%s: %d pilot pairs, std of R %.2f m, correlation %.3f: %d paired realizations (%d chunks) for a "
-    "half-width of %.3g m, predicted %.3g m%s",
+    "%s: %d pairs over strata of the cheap runout %s (sizes %s): %s",
     snakemake.wildcards.case,
-    plan["pilot"],
-    plan["std_m"],
-    plan["correlation"],
-    plan["n_paired"],
-    plan["chunks"],
-    plan["target_half_width_m"],
-    plan["predicted_half_width_m"],
-    "" if plan["reached"] else f" (not reached within the cap {plan['cap']})",
+    len(design.indices),
+    [[round(v, 2) for v in bounds] for bounds in design.bounds_m],
+    design.sizes,
+    design.pairs,
 )

@@ -88,7 +88,7 @@ def outside_ranges(card: dict[str, Any], config: dict[str, Any], cases: list[str
     if not ranges:
         return []
     lines = []
-    for case in cases:
+    for case in (case for case in cases if case in config["sets"]):  # an unknown case is named elsewhere
         for g, group in enumerate(config["sets"][case]):
             for key in FIELD_RANGE_KEYS:
                 low, high = ranges["field"][key]
