@@ -26,10 +26,12 @@ pytestmark = pytest.mark.workflow
 
 
 def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped_model(tmp_path):
-    """The shipped end-state surrogate (the default): no training-set MPM run and no training is scheduled."""
+    """The shipped geometry-general end-state surrogate (the default): no training-set MPM run and no training
+    is scheduled, and no MPM run of the whole Monte Carlo: the MPM runs only the test cases' validation
+    (mpm_run) and the pairs (mc_paired_chunk, mc_coarse_chunk); mc_chunk runs the surrogate, gate or not."""
     jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map"))
     config = load_config(REPO / "config" / "config.yaml")
-    assert config["montecarlo"]["simulator"] == "endstate" and config["endstate"]["model"] == "shipped"
+    assert config["montecarlo"]["simulator"] == "endstate" and config["endstate"]["model"] == "general"
     cases = {name: groups for name, groups in config["sets"].items() if name not in ("train", "valid")}
     sizes = [sum(group["count"] for group in groups) for groups in cases.values()]
     chunks = sum(-(-size // config["mpm"]["chunk_size"]) for size in sizes)
@@ -50,20 +52,22 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
         "mc_collect": mc_cases,
         "exceedance": mc_cases,
         "zoning": mc_cases,
-        "mc_paired_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
+        "mc_paired_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["fidelity"]["chunk_size"]),
         "mc_paired_collect": mc_cases,
+        "paired_plan": mc_cases,
         "multifidelity": mc_cases,
         "report": 1,
         "hazard_map": 1,
         # the pairs again at the Monte Carlo's mesh: the coarser level of the mesh extrapolation
-        "mc_coarse_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["chunk_size"]),
+        "mc_coarse_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["fidelity"]["chunk_size"]),
         "mc_coarse_collect": mc_cases,
         # the correction's control variate: the shipped tuned surrogate on every realization
         "shipped_tuned_endstate": 1,
         "mc_control_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
         "mc_control_collect": mc_cases,
     }
-    assert montecarlo["fidelity"]["cheap"] == "tuned"
+    assert montecarlo["fidelity"]["cheap"] == "tuned" and montecarlo["realizations"] == 10_000
+    assert config["validation"]["acceptance"]["on_failure"] == "report"  # mc_chunk does not wait for the gate
     assert min(sizes) >= 16  # enough realizations per test case for R² to mean something
 
 
