@@ -172,8 +172,9 @@ def collect_listed(paths: list[str], indices: list[int]) -> pd.DataFrame:
     (len(indices) / len(paths) rounded up), each checked to hold exactly those: one cut short, or left over
     from another plan, is named."""
     size = -(-len(indices) // max(1, len(paths)))
-    tables = [read_chunk(path, indices[k * size : (k + 1) * size], COLUMNS) for k, path in enumerate(paths)]
-    return pd.concat(tables, ignore_index=True)
+    tables = [read_chunk(path, sorted(indices[k * size : (k + 1) * size]), COLUMNS) for k, path in enumerate(paths)]
+    table = pd.concat(tables, ignore_index=True).set_index("index", drop=False)
+    return table.loc[list(indices)].reset_index(drop=True)
 
 
 @dataclass
