@@ -113,7 +113,7 @@ def _quantile_steps(
     the point value and the ends of a paired percentile bootstrap (within the design ``strata``: a label per
     pair)."""
     n = len(high)
-    weights = _pair_weights(strata, n)
+    weights = design_weights(strata, n)
     labels = None if strata is None else np.asarray(strata)[:n]
 
     def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
@@ -122,13 +122,6 @@ def _quantile_steps(
     point = statistic(np.arange(n), None)
     low, high_end = stratified_bootstrap(statistic, n, n, confidence, RESAMPLES, seed, 1000, labels)
     return point, np.minimum(np.asarray(low), point), np.maximum(np.asarray(high_end), point)
-
-
-def _pair_weights(strata: np.ndarray | None, n: int) -> np.ndarray:
-    """The pairs' design weights from the strata of every row (pairs first)."""
-    if strata is None:
-        return np.full(n, 1.0 / n)
-    return design_weights(np.asarray(strata), n, len(strata))
 
 
 def distance_intervals(
@@ -152,7 +145,7 @@ def distance_intervals(
     P) plus the paired quantiles' Richardson step; at the expanded percentile level for n pairs."""
     n, big_n = len(high), len(low)
     targets = np.asarray(probabilities, dtype=float)
-    weights = _pair_weights(strata, n)
+    weights = design_weights(strata, n)
     resample_rest = big_n - n <= RESAMPLED_UNPAIRED
     fixed_rest, fixed_counts = (None, None) if resample_rest else binned(low[n:, None], BINS)
 
@@ -313,7 +306,7 @@ def _zoning(
     x_m = np.arange(0.0, settings["domain"]["length_m"] + 1e-9, settings["resolution_m"])
     ends_high, ends_coarse, ends_low = (t[list(ENDS)].to_numpy(float) for t in (high, coarse, low))
     steps = np.zeros((3, 2))
-    weights = _pair_weights(strata, len(high))
+    weights = design_weights(strata, len(high))
     for column, key in enumerate(("runout_m", "influence_m")):
         key_order = orders[key]
         if key_order is not None:

@@ -105,10 +105,8 @@ def stratified_bootstrap(
         batch_dims = pick.ndim - 1
         return np.moveaxis(value, tuple(range(batch_dims)), tuple(range(value.ndim - batch_dims, value.ndim)))
 
-    singles = [len(group) < 2 for group in groups]  # a lone unpaired run in its stratum: resampled with itself
-    samples = tuple(np.arange(len(group)) if not single else np.zeros(2) for group, single in zip(groups, singles))
-    if any(singles):
-        groups = [np.repeat(group, 2) if single else group for group, single in zip(groups, singles)]
+    groups = [np.repeat(group, 2) if len(group) < 2 else group for group in groups]  # a lone unpaired run: itself
+    samples = tuple(np.arange(len(group)) for group in groups)
     boot = stats.bootstrap(
         samples,
         resampled,
@@ -123,7 +121,7 @@ def stratified_bootstrap(
     return boot.confidence_interval
 
 
-def design_weights(strata: np.ndarray | None, n: int, big_n: int) -> np.ndarray:
+def design_weights(strata: np.ndarray | None, n: int) -> np.ndarray:
     """Each pair's weight [n] (summing to 1) in a design stratified on the cheap route: a pair of stratum s
     stands for N_s / N of the realizations, shared by its n_s pairs (``strata``: a label per row, pairs first;
     None: one stratum, every pair 1 / n)."""
@@ -133,7 +131,7 @@ def design_weights(strata: np.ndarray | None, n: int, big_n: int) -> np.ndarray:
     weights = np.empty(n)
     for s in np.unique(labels[:n]):
         members = labels[:n] == s
-        weights[members] = np.count_nonzero(labels == s) / big_n / np.count_nonzero(members)
+        weights[members] = np.count_nonzero(labels == s) / labels.size / np.count_nonzero(members)
     missing = set(np.unique(labels[n:]).tolist()) - set(np.unique(labels[:n]).tolist())
     if missing:
         raise MultiFidelityError(f"design strata {sorted(missing)} hold realizations but no pair")
@@ -208,7 +206,7 @@ def control_variate(
         raise MultiFidelityError(f"confidence must lie in (0, 1), got {confidence}")
     shape = high.shape[1:]
     h2, l2 = high.reshape(n, -1), low.reshape(big_n, -1)
-    w = design_weights(strata, n, big_n)
+    w = design_weights(strata, n)
 
     def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
         rest_values = None if rest is None else l2[rest]
@@ -383,7 +381,7 @@ def regression_control_variate(
         raise MultiFidelityError("high- or low-fidelity values hold infinity (a diverged run?)")
     signs = np.ones(k) if signs is None else np.asarray(signs, dtype=float)
     inclusive = np.zeros(k, dtype=bool) if inclusive is None else np.asarray(inclusive, dtype=bool)
-    w = design_weights(strata, n, big_n)
+    w = design_weights(strata, n)
     resample_rest = big_n - n <= RESAMPLED_UNPAIRED
     fixed_rest, fixed_counts = (None, None) if resample_rest else binned(low[n:], BINS)
 
@@ -442,7 +440,7 @@ def corrected_affected_probability(
     overlap, and a wiggle across a zoning threshold drew an island (a 0.75 m "extremely low" stretch inside
     "low")."""
     n = len(high)
-    w = design_weights(strata, n, len(low))
+    w = design_weights(strata, n)
     terms = [
         rearranged(
             regression_point_estimate(

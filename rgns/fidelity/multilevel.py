@@ -128,7 +128,7 @@ def _bootstrap(
     (and the design strata within them)."""
     counts = [len(level) for level in levels]
     blocks = _blocks(counts, strata)
-    weights = design_weights(strata, counts[0], counts[-1])
+    weights = design_weights(strata, counts[0])
     if any(len(block) < 2 for block in blocks if block[0] < counts[0]):
         raise MultiFidelityError("every design stratum needs at least 2 pairs to resample")
     singles = [len(block) < 2 for block in blocks]
@@ -179,7 +179,7 @@ def multilevel(
     arrays = _checked(levels)
     counts = [len(a) for a in arrays]
     strata = _checked_strata(strata, counts)
-    weights = design_weights(strata, counts[0], counts[-1])[:, None]
+    weights = design_weights(strata, counts[0])[:, None]
     estimate, alphas, corrections = mfmc_estimate(arrays, axis=0, weights=weights)
     lower, upper = _bootstrap(
         arrays, lambda r, w: mfmc_estimate(r, axis=-2, weights=w)[0], confidence, resamples, seed, strata
@@ -254,7 +254,7 @@ def extrapolated(
 
     lower, upper = _bootstrap(arrays, statistic, confidence, resamples, seed, strata)
     q = arrays[0].shape[1]
-    w = design_weights(strata, n0, len(arrays[-1]))[:, None]
+    w = design_weights(strata, n0)[:, None]
     steps = richardson_step((arrays[0] * w).sum(axis=0), (arrays[1][:n0] * w).sum(axis=0), ratio, orders[:, None])
     point = finest.estimate.reshape(-1) + steps[0]
     lower = np.minimum(np.asarray(lower).reshape(3, q).min(axis=0), point)

@@ -151,7 +151,7 @@ def correct(
     )
     probability, uncorrected = corrected_affected_probability(ends_high, ends_low, x_m, strata), estimate.low_mean
     thresholds = settings["thresholds"]
-    w = design_weights(strata, n, len(low))[:, None]
+    w = design_weights(strata, n)[:, None]
     labels = np.zeros(n, dtype=int) if strata is None else strata[:n]
     record["pair_validation"] = pair_validation(high, low.iloc[:n], w[:, 0], labels, confidence, seed=seed)
     record["zoning"] = {
@@ -262,7 +262,7 @@ def simulator_validation(
     simulator_rows, coarse_rows = paired_rows(simulator, coarse)
     n = len(coarse_rows)
     strata = row_strata(design, simulator_rows["index"].tolist(), n)
-    weights = design_weights(strata, n, len(simulator_rows))
+    weights = design_weights(strata, n)
     labels = np.zeros(n, dtype=int) if strata is None else strata[:n]
     return pair_validation(coarse_rows, simulator_rows.iloc[:n], weights, labels, confidence)
 

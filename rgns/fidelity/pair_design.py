@@ -36,9 +36,6 @@ class PairDesign:
     def to_record(self) -> dict[str, Any]:
         return asdict(self)
 
-    def stratum_of(self) -> dict[int, int]:
-        return dict(zip(self.realizations, self.strata))
-
 
 def allocate_pairs(sizes: np.ndarray, spreads: np.ndarray, total: int, floor: int) -> np.ndarray:
     """Neyman allocation of ``total`` pairs over strata of ``sizes`` and cheap-runout ``spreads``: n_s ∝ N_s σ_s,
