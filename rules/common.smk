@@ -184,10 +184,18 @@ def mc_paired_plan(wildcards):
     return [f"results/mc/{wildcards.case}/paired_plan.json"]
 
 
+def paired_plan_cheap(wildcards):
+    """The cheap runs the pairs are stratified on: none for a simple random subsample (no strata)."""
+    return [CHEAP_TABLE.format(case=wildcards.case)] if config["montecarlo"]["fidelity"]["strata"] else []
+
+
 def paired_plan_params(wildcards):
-    """What choosing the pairs depends on: how many, the strata, their floor, the seed."""
+    """What choosing the pairs depends on: how many, the strata, their floor, the seed, the realizations."""
     fidelity = config["montecarlo"]["fidelity"]
-    return {key: fidelity[key] for key in ("paired", "strata", "min_per_stratum")} | {"seed": config["seed"]}
+    return {key: fidelity[key] for key in ("paired", "strata", "min_per_stratum")} | {
+        "seed": config["seed"],
+        "realizations": config["montecarlo"]["realizations"],
+    }
 
 
 def mc_paired_case_params(wildcards):
@@ -260,6 +268,12 @@ def mc_gate(wildcards):
     validation.acceptance.on_failure is stop (a case it fails stops); with report it decides nothing."""
     stop = config["validation"]["acceptance"]["on_failure"] == "stop"
     return ["results/report/validation/gate.json"] if stop and config["montecarlo"]["simulator"] != "mpm" else []
+
+
+def report_gate(wildcards):
+    """The validation gate's verdicts for the report's top, whenever a learned simulator ran the Monte Carlo
+    (whether or not the gate decides anything)."""
+    return ["results/report/validation/gate.json"] if config["montecarlo"]["simulator"] != "mpm" else []
 
 
 def mc_chunks(wildcards):

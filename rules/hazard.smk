@@ -46,7 +46,7 @@ rule report:
         evaluation=SURROGATE_EVALUATION,
         validation_table="results/report/validation/table.csv",
         validation_summary="results/report/validation/summary.json",
-        gate=mc_gate,
+        gate=report_gate,
         validation_figures=["results/report/validation/histograms.png", "results/report/validation/parity.png"]
         + expand("results/report/validation/energy_{case}.png", case=TEST_CASES),
         hazard=expand("results/report/{case}/{name}", case=MC_CASES,

@@ -176,9 +176,11 @@ rule mc_coarse_collect:
 
 rule paired_plan:
     """Which realizations the MPM re-runs: strata of the cheap route's runout, pairs allocated over them (more
-    in the tail) and drawn at random within each (rgns.fidelity.pair_design)."""
+    in the tail) and drawn at random within each (rgns.fidelity.pair_design). Without strata (the default) a
+    simple random subsample of the realization indices, which needs no cheap answer: a cheap chunk run again
+    (a deleted file, a retrained model) then re-runs no MPM pair."""
     input:
-        realizations=CHEAP_TABLE,
+        realizations=paired_plan_cheap,
     output:
         "results/mc/{case}/paired_plan.json",
     params:

@@ -438,7 +438,7 @@ def _short(value: Any) -> str:
 
 
 def allocation_parts(record: dict[str, Any]) -> list[str]:
-    """The runs' costs, the MFMC allocation, the target's and the run's own plan of pairs."""
+    """The runs' costs, the MFMC allocation, the target's and the plan of the pairs (rule paired_plan)."""
     cost, allocation = record["cost"], record["allocation"]
     parts = [subheading("The allocation")]
     plan = record.get("plan")
@@ -469,24 +469,6 @@ def allocation_parts(record: dict[str, Any]) -> list[str]:
                 f"For a {record['confidence']:.0%} half-width of {target['half_width_m']:g} m on the "
                 f"mean runout: {target['n_high']} paired and {target['n_low']} cheap realizations "
                 f"({target['cost']:.0f} s against {target['plain_cost']:.0f} s by the accurate MPM alone)."
-            )
-        )
-    if plan and {"reached", "needed", "cap", "pilot", "std_m", "predicted_half_width_m"} <= plan.keys():
-        if plan["reached"]:
-            verdict = "reached"
-        elif plan["needed"] is None:
-            verdict = (
-                f"NOT reachable with {plan['n_low']} cheap realizations, whatever the pairs "
-                "(raise montecarlo.realizations)"
-            )
-        else:
-            verdict = f"NOT reached within the cap of {plan['cap']} pairs (montecarlo.fidelity.max_paired)"
-        parts.append(
-            paragraph(
-                f"Pairs chosen by the run for a {record['confidence']:.0%} half-width of {plan['target_half_width_m']:g} m "
-                f"on the mean runout: from a pilot of {plan['pilot']} pairs (std of R {plan['std_m']:.2f} m, correlation "
-                f"{plan['correlation']:.3f}) and {plan['n_low']} cheap realizations, {plan['n_paired']} paired; predicted "
-                f"half-width {plan['predicted_half_width_m']:.3g} m, {verdict}."
             )
         )
     return parts

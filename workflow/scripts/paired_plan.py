@@ -1,7 +1,9 @@
 """Rule paired_plan: which of a case's realizations the MPM re-runs, stratified on the cheap route's runout
-(rgns.fidelity.pair_design)."""
+(rgns.fidelity.pair_design), or a simple random subsample of them without strata."""
 
 import json
+
+import numpy as np
 
 from rgns.fidelity.pair_design import design_pairs
 from rgns.logsetup import log_to_file
@@ -10,15 +12,15 @@ from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])
 settings = snakemake.params.settings
-cheap = read_csv(snakemake.input.realizations)
-cheap = cheap[cheap["status"].isin(FINISHED)]
+if snakemake.input.realizations:  # strata: the finished cheap runs and their runout
+    cheap = read_csv(snakemake.input.realizations[0])
+    cheap = cheap[cheap["status"].isin(FINISHED)]
+    index, runout = cheap["index"].to_numpy(), cheap["runout_m"].to_numpy(float)
+else:  # one stratum: every realization, whatever the cheap route says of it
+    index = np.arange(settings["realizations"])
+    runout = np.zeros(index.size)
 design = design_pairs(
-    cheap["index"].to_numpy(),
-    cheap["runout_m"].to_numpy(float),
-    settings["paired"],
-    list(settings["strata"]),
-    settings["min_per_stratum"],
-    settings["seed"],
+    index, runout, settings["paired"], list(settings["strata"]), settings["min_per_stratum"], settings["seed"]
 )
 with open(snakemake.output[0], "w") as out:
     json.dump(design.to_record(), out)
