@@ -616,15 +616,18 @@ def gate_section(
                     note=True,
                 )
             )
-    for case, verdict in gate.items():  # validated test cases outside the Monte Carlo: their verdicts too
-        if case not in cases:
-            outcome = "passed" if verdict["passed"] else f"FAILED ({'; '.join(verdict['failures'])})"
-            lines.append(
-                paragraph(
-                    f"{case} (validated, not in the Monte Carlo): the {name} {outcome} the validation gate.",
-                    note=not verdict["passed"],
-                )
+    outside = {case: verdict for case, verdict in gate.items() if case not in cases}
+    if outside:  # validated test cases outside the Monte Carlo: their verdicts too, in one paragraph
+        outcomes = [
+            f"{case} {'passed' if verdict['passed'] else 'FAILED (' + '; '.join(verdict['failures']) + ')'}"
+            for case, verdict in outside.items()
+        ]
+        lines.append(
+            paragraph(
+                f"Validated, not in the Monte Carlo (a report of the {name}): {'; '.join(outcomes)}.",
+                note=not all(verdict["passed"] for verdict in outside.values()),
             )
+        )
     report.add("Validation gate", *lines, *([] if validation_table is None else [table(validation_table)]))
 
 

@@ -26,8 +26,8 @@ def test_every_verdict_is_in_the_report_also_of_cases_outside_the_monte_carlo():
     assert "case1: the end-state surrogate passed the validation gate" in page
     assert "case2: the end-state surrogate FAILED the validation gate" in page
     assert (
-        "case4 (validated, not in the Monte Carlo): the end-state surrogate FAILED (influence R² 0.71 "
-        "[0.39, 0.87]: lower bound &lt; 0.9) the validation gate."
+        "Validated, not in the Monte Carlo (a report of the end-state surrogate): case4 FAILED (influence R² 0.71 "
+        "[0.39, 0.87]: lower bound &lt; 0.9)."
     ) in page
 
 
