@@ -92,7 +92,7 @@ rule hazard_map:
     unless gns.model is shipped), GNS, validation gate, Monte Carlo, hazard report."""
     input:
         expand("results/dataset/{set}.h5", set=RUN_SETS),
-        [] if config["gns"]["model"] == "shipped" else "results/dataset/gns/metadata.json",
+        [] if config["gns"]["model"] == "shipped" or SURROGATE is None else "results/dataset/gns/metadata.json",
         "results/report/report.html",
         expand("results/site/{case}/{name}", case=SITE["name"], name=SITE_FILES) if SITE_FILES else [],
         report_foundations,

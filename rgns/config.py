@@ -231,15 +231,15 @@ def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
 
 
 def _shipped_errors(config: dict[str, Any]) -> list[str]:
-    """With gns.model: shipped and the GNS in use (the Monte Carlo's simulator, or the one validated beside an MPM
-    Monte Carlo), the keys the shipped model is tied to must be its own (said before any job runs)."""
+    """With gns.model: shipped and the GNS the Monte Carlo's simulator, the keys the shipped model is tied to must
+    be its own (said before any job runs)."""
     from rgns.surrogates.shipped import (  # local: torch-free, but only needed here
         ShippedModelError,
         check_serves,
         read_card,
     )
 
-    if config["gns"]["model"] != "shipped" or config["montecarlo"]["simulator"] == "endstate":
+    if config["gns"]["model"] != "shipped" or config["montecarlo"]["simulator"] != "gns":
         return []
     try:
         check_serves(read_card(), config)

@@ -121,14 +121,17 @@ TEST_CASES = [name for name in SETS if name not in ("train", "valid")]
 MC_CASES = list(config["montecarlo"]["cases"])
 # the multi-fidelity correction's outputs per case, when montecarlo.fidelity.paired > 0
 MULTIFIDELITY_FILES = ["multifidelity.json", "multifidelity.png"] if config["montecarlo"]["fidelity"]["paired"] else []
-# the learned simulator the validation judges: the Monte Carlo's, or the GNS when the Monte Carlo runs MPM
-SURROGATE = config["montecarlo"]["simulator"] if config["montecarlo"]["simulator"] != "mpm" else "gns"
+# the learned simulator the validation judges: the Monte Carlo's; none when the Monte Carlo runs MPM (nothing
+# learned is trained, validated or shown then)
+SURROGATE = config["montecarlo"]["simulator"] if config["montecarlo"]["simulator"] != "mpm" else None
 SURROGATE_MODEL = f"results/model/{SURROGATE}.pt"
 # what the report shows of it: its learning curve and its training summary
 SURROGATE_CURVE = "results/model/endstate_curve.png" if SURROGATE == "endstate" else "results/model/learning_curve.png"
 SURROGATE_EVALUATION = "results/model/endstate_evaluation.json" if SURROGATE == "endstate" else "results/model/evaluation.json"
-# the sets a run simulates: with a shipped model, or the end-state surrogate, no training set is run
-RUN_SETS = TEST_CASES if SURROGATE == "endstate" or config["gns"]["model"] == "shipped" else SETS
+# the sets a run simulates: with a shipped model, or the end-state surrogate, no training set is run; with
+# no learned simulator, none
+RUN_SETS = ([] if SURROGATE is None else TEST_CASES if SURROGATE == "endstate" or config["gns"]["model"] == "shipped"
+            else SETS)
 
 
 wildcard_constraints:
@@ -370,7 +373,7 @@ def report_foundations(wildcards):
     files = []
     for case in RUN_SETS:
         files += set_chunks(SimpleNamespace(set=case))
-    for case in TEST_CASES:
+    for case in TEST_CASES if SURROGATE else []:
         files += [f"results/validation/{case}/pairs.csv", f"results/validation/{case}/energies.npz"]
     for case in MC_CASES:
         named = SimpleNamespace(case=case)

@@ -42,13 +42,13 @@ rule report:
     """One self-contained HTML page with every figure, table and caption."""
     input:
         scenes=expand("results/plots/{set}/scenes.png", set=RUN_SETS),
-        curve=SURROGATE_CURVE,
-        evaluation=SURROGATE_EVALUATION,
-        validation_table="results/report/validation/table.csv",
-        validation_summary="results/report/validation/summary.json",
+        curve=[SURROGATE_CURVE] if SURROGATE else [],
+        evaluation=[SURROGATE_EVALUATION] if SURROGATE else [],
+        validation_table=["results/report/validation/table.csv"] if SURROGATE else [],
+        validation_summary=["results/report/validation/summary.json"] if SURROGATE else [],
         gate=report_gate,
         validation_figures=["results/report/validation/histograms.png", "results/report/validation/parity.png"]
-        + expand("results/report/validation/energy_{case}.png", case=TEST_CASES),
+        + expand("results/report/validation/energy_{case}.png", case=TEST_CASES) if SURROGATE else [],
         hazard=expand("results/report/{case}/{name}", case=MC_CASES,
                       name=["exceedance.png", "exceedance.json", "convergence.png", "convergence.json",
                             "zoning.png", "zoning.json"] + MULTIFIDELITY_FILES)

@@ -32,11 +32,13 @@ if SITE_FILES:
         site_gis,
 
     rule site_gis:
-        """zones.geojson (one LineString per zone in the site's CRS), exceedance.csv (P(D > d) per chainage
-        for runout and retreat) and, for a DEM, the map view."""
+        """zones.geojson (one LineString per zone in the site's CRS: the best estimate's zones where MPM pairs
+        corrected the case), exceedance.csv (P(D > d) per chainage for runout and retreat, by the Monte Carlo's
+        simulator) and, for a DEM, the map view."""
         input:
             realizations="results/mc/{case}/realizations.csv",
             zoning="results/report/{case}/zoning.json",
+            correction=[f"results/report/{{case}}/{name}" for name in MULTIFIDELITY_FILES if name.endswith(".json")],
             source=site_source,
         output:
             zones="results/site/{case}/zones.geojson",

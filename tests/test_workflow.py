@@ -71,6 +71,26 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
     assert min(sizes) >= 16  # enough realizations per test case for R² to mean something
 
 
+def test_a_plain_mpm_monte_carlo_at_half_metre_cells_needs_no_learned_simulator(tmp_path):
+    """montecarlo.simulator: mpm at 0.5 m cells (which no shipped model serves): accepted, and the DAG
+    trains, validates and runs no learned simulator, nor any test case's MPM run: the MPM runs the
+    Monte Carlo, and the report has no model to show."""
+    config = load_config(REPO / "config" / "config.yaml")
+    config["mesh"]["cell_size_m"] = 0.5
+    config["montecarlo"] |= {"simulator": "mpm", "realizations": 16, "chunk_size": 8}
+    config["montecarlo"]["fidelity"]["paired"] = 0
+    jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map", config=write_config(tmp_path / "mpm.yaml", config)))
+    assert jobs == {
+        "mc_chunk": 2,
+        "mc_mean_field": 1,
+        "mc_collect": 1,
+        "exceedance": 1,
+        "zoning": 1,
+        "report": 1,
+        "hazard_map": 1,
+    }
+
+
 def test_training_from_scratch_schedules_the_training_sets_and_the_training(tmp_path):
     config = load_config(REPO / "config" / "config.yaml")
     config["gns"]["model"] = "train"
@@ -348,6 +368,22 @@ def test_the_gate_reports_a_failed_model_or_stops_when_told(built, tmp_path):
     logs = [path.read_text() for path in (copy_dir / "logs" / "mc_chunk" / "case1").glob("chunk_*.log")]
     assert any("case1: the GNS failed" in log for log in logs)  # the chunk that failed first says why
     assert (copy_dir / "results" / "validation" / "case1" / "pairs.csv").exists()
+
+
+def test_a_plain_mpm_monte_carlo_runs_to_its_report_without_a_model(built, tmp_path):
+    """montecarlo.simulator: mpm on the tiny run: every realization by the MPM, and a page that says so and
+    shows no learned simulator."""
+    workdir = tmp_path / "mpm"
+    shutil.copytree(built[0], workdir, symlinks=True)
+    config = copy.deepcopy(built[1])
+    config["montecarlo"]["simulator"] = "mpm"
+    result = snakemake(workdir, "--cores", "2", "hazard_map", config=write_config(tmp_path / "mpm.yaml", config))
+    assert result.returncode == 0, result.stderr[-3000:]
+    table = read_csv(workdir / "results" / "mc" / "case1" / "realizations.csv")
+    assert (table["simulator"] == "mpm").all() and len(table) == config["montecarlo"]["realizations"]
+    page = (workdir / "results" / "report" / "report.html").read_text()
+    assert "case1: MPM (configured)" in page and "no surrogate was used" in page
+    assert "<summary>Validation against MPM on the test cases" not in page
 
 
 def test_the_tuned_control_variate_is_made_and_corrects_the_monte_carlo(built, tmp_path):

@@ -46,10 +46,27 @@ def _line_through(section: Section, start: float, end: float) -> list[list[float
     return section.map_points(np.concatenate([[start], inner, [end]])).tolist()
 
 
+def best_estimate_zoning(zoning: dict[str, Any], correction: dict[str, Any] | None) -> dict[str, Any]:
+    """The zoning the GIS files carry: the best estimate's zones where the case was corrected by MPM pairs
+    (``correction``: its multifidelity.json; at the converged mesh where the mesh extrapolation ran, else at
+    the accurate mesh), the Monte Carlo simulator's own otherwise; ``basis`` says which."""
+    if correction is None:
+        return zoning | {"basis": "the Monte Carlo's simulator, uncorrected (no MPM pairs)"}
+    high = correction["high_cell_size_m"]
+    if "converged" in correction:
+        zones = correction["converged"]["zoning"]["zones"]
+        basis = f"the best estimate: corrected to the MPM at {high:g} m cells and carried to the converged mesh"
+    else:
+        zones = correction["zoning"]["zones_corrected"]
+        basis = f"the best estimate: corrected to the MPM at {high:g} m cells"
+    return zoning | {"zones": zones, "basis": basis}
+
+
 def zone_features(
     zoning: dict[str, Any], section: Section, chainage_from_m: float, domain_length_m: float, name: str
 ) -> dict[str, Any]:
-    """A GeoJSON FeatureCollection: one LineString per contiguous zone, in chainage order."""
+    """A GeoJSON FeatureCollection: one LineString per contiguous zone, in chainage order (``basis``, where
+    the zoning gives one, recorded as what the zones rest on)."""
     low, high = modelled_range(section, chainage_from_m, domain_length_m)
     features = []
     for zone in zoning["zones"]:
@@ -72,6 +89,8 @@ def zone_features(
             }
         )
     collection: dict[str, Any] = {"type": "FeatureCollection", "name": f"{name}_zones", "features": features}
+    if "basis" in zoning:
+        collection["zones_from"] = zoning["basis"]
     collection["crs"] = {"type": "name", "properties": {"name": section.crs or LOCAL_CRS}}
     if not section.crs:
         collection["frame"] = LOCAL_FRAME

@@ -594,12 +594,7 @@ def gate_section(
                 )
             )
         else:
-            if verdict["simulator"] == "mpm":
-                then = (
-                    "the Monte Carlo below was run by MPM instead (on_failure: fallback), so it does not rest "
-                    f"on the {name}"
-                )
-            elif case in corrected:
+            if case in corrected:
                 then = (
                     f"the Monte Carlo ran the {name} all the same (validation.acceptance.on_failure: report): the "
                     f"best estimate below is corrected to the MPM by this case's pairs, so it does not rest on the "
@@ -664,7 +659,7 @@ def model_section(
 
 def routes(cases: list[str], gate: dict[str, dict[str, Any]], surrogate: str) -> dict[str, str]:
     """What ran each Monte Carlo case: the surrogate that passed its gate, the surrogate that failed it (the gate
-    a report of the model: on_failure report), MPM after a failed gate (on_failure fallback), or MPM."""
+    a report of the model: on_failure report), or MPM (configured)."""
     name = SURROGATE_NAMES[surrogate]
     return {
         case: (
@@ -672,8 +667,6 @@ def routes(cases: list[str], gate: dict[str, dict[str, Any]], surrogate: str) ->
             if case not in gate
             else f"{name} (passed its gate)"
             if gate[case]["passed"]
-            else f"MPM (the {name} failed its gate)"
-            if gate[case]["simulator"] == "mpm"
             else f"{name} (failed its gate, run all the same)"
         )
         for case in cases
@@ -719,14 +712,14 @@ def build_report(
     title: str,
     overview: dict[str, Any],
     scenes: dict[str, Path],
-    learning_curve: Path,
-    evaluation: dict[str, Any],
-    validation_table: pd.DataFrame,
+    learning_curve: Path | None,
+    evaluation: dict[str, Any] | None,
+    validation_table: pd.DataFrame | None,
     validation_summary: list[dict],
     validation_figures: dict[str, Path],
     hazard: dict[str, dict[str, Path]],
     gate: dict[str, dict[str, Any]] | None = None,
-    surrogate: str = "gns",
+    surrogate: str | None = "gns",
     made: dict[str, str] | None = None,
 ) -> str:
     """The whole page, the answer first: (a) what made it and the route of each Monte Carlo case, with every
@@ -735,20 +728,13 @@ def build_report(
     the intervals hold; a case without a correction: its convergence); (d) folded details: configuration,
     scenes, the model, its validation on the test cases, each case's correction in detail and its uncorrected
     Monte Carlo map. ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and
-    evaluation these are; ``made`` the provenance (rgns.provenance)."""
-    lead = provenance_line(made, routes(list(hazard), gate or {}, surrogate)) if made else ""
+    evaluation these are (None: a plain MPM Monte Carlo, no learned simulator, nor its curve, evaluation
+    or validation); ``made`` the provenance (rgns.provenance)."""
+    lead = provenance_line(made, routes(list(hazard), gate or {}, surrogate or "gns")) if made else ""
     report = Report(title, "\n".join([lead, *shrinkage_notes(hazard, validation_summary)]))
-    # the table's columns named after the simulator that ran (its files call every learned simulator gns)
-    validation_table = validation_table.rename(
-        columns=lambda column: (
-            column.replace("gns", SURROGATE_NAMES[surrogate].replace(" ", "_").replace("-", "_"))
-            if column.startswith("gns")
-            else column
-        )
-    )
     corrected = [case for case, files in hazard.items() if "multifidelity.json" in files]
     # (a) the route of each case and what to distrust
-    gate_section(report, gate or {}, list(hazard), None, surrogate, corrected)
+    gate_section(report, gate or {}, list(hazard), None, surrogate or "gns", corrected)
     fidelity_summary(report, hazard)
     # (b) the answer
     for case, files in hazard.items():
@@ -772,8 +758,35 @@ def build_report(
         ),
     )
     report.add("Configuration", f"<pre>{html.escape(json.dumps(overview, indent=2))}</pre>", folded=True)
-    report.add("Scenes", *(figure(path, caption("scenes", set=name)) for name, path in scenes.items()), folded=True)
-    model_section(report, surrogate, evaluation, learning_curve, folded=True)
+    if scenes:
+        figures = (figure(path, caption("scenes", set=name)) for name, path in scenes.items())
+        report.add("Scenes", *figures, folded=True)
+    if surrogate is not None and evaluation is not None and learning_curve is not None:
+        model_section(report, surrogate, evaluation, learning_curve, folded=True)
+    if surrogate is not None and validation_table is not None:
+        validation_section(report, surrogate, validation_table, validation_summary, validation_figures)
+    for case in corrected:
+        correction_details(report, case, hazard[case])
+        monte_carlo_sections(report, case, hazard[case], "details")
+    return report.html()
+
+
+def validation_section(
+    report: Report,
+    surrogate: str,
+    validation_table: pd.DataFrame,
+    validation_summary: list[dict],
+    validation_figures: dict[str, Path],
+) -> None:
+    """The learned simulator against the MPM on the test cases, folded: the gate's table and figures."""
+    # the table's columns named after the simulator that ran (its files call every learned simulator gns)
+    validation_table = validation_table.rename(
+        columns=lambda column: (
+            column.replace("gns", SURROGATE_NAMES[surrogate].replace(" ", "_").replace("-", "_"))
+            if column.startswith("gns")
+            else column
+        )
+    )
     report.add(
         "Validation against MPM on the test cases (the validation gate's table)",
         table(validation_table),
@@ -787,7 +800,3 @@ def build_report(
         ),
         folded=True,
     )
-    for case in corrected:
-        correction_details(report, case, hazard[case])
-        monte_carlo_sections(report, case, hazard[case], "details")
-    return report.html()

@@ -39,7 +39,7 @@ class Verdict:
     case: str
     passed: bool
     failures: list[str] = field(default_factory=list)
-    simulator: str = "gns"  # what the Monte Carlo of this case runs: gns, or mpm after a fallback
+    simulator: str = "gns"  # what the Monte Carlo of this case runs: the learned simulator judged, gate or not
 
     surrogate: str = "gns"  # the learned simulator judged: gns, or endstate (the end-state surrogate)
     evidence: list[str] = field(default_factory=list)  # per metric: R² with its interval, on how many pairs
@@ -49,8 +49,10 @@ class Verdict:
         if self.passed:
             on = f" ({'; '.join(self.evidence)})" if self.evidence else ""
             return f"{self.case}: the {name} passed the validation gate{on}; the Monte Carlo uses it"
-        then = "the Monte Carlo runs the MPM instead" if self.simulator == "mpm" else "the Monte Carlo stops"
-        return f"{self.case}: the {name} failed the validation gate ({'; '.join(self.failures)}): {then}"
+        return (
+            f"{self.case}: the {name} failed the validation gate ({'; '.join(self.failures)}): the Monte Carlo "
+            "stops with validation.acceptance.on_failure stop, and runs it all the same with report"
+        )
 
 
 def _bias_failure(row: pd.Series, limit: float, cell_size_m: float) -> str | None:

@@ -14,8 +14,12 @@ GATE = {
         "simulator": "endstate",
         "evidence": ["runout R² 0.99 [0.97, 1.00] on 16"],
     },
-    "case2": {"passed": False, "failures": ["volume R² 0.93 [0.76, 0.97]: lower bound < 0.9"], "simulator": "mpm"},
-    "case4": {"passed": False, "failures": ["influence R² 0.71 [0.39, 0.87]: lower bound < 0.9"], "simulator": "mpm"},
+    "case2": {"passed": False, "failures": ["volume R² 0.93 [0.76, 0.97]: lower bound < 0.9"], "simulator": "endstate"},
+    "case4": {
+        "passed": False,
+        "failures": ["influence R² 0.71 [0.39, 0.87]: lower bound < 0.9"],
+        "simulator": "endstate",
+    },
 }
 
 
@@ -35,7 +39,7 @@ def test_the_lead_names_the_route_of_each_case():
     case_routes = routes(["case1", "case2", "site"], GATE, "endstate")
     assert case_routes == {
         "case1": "end-state surrogate (passed its gate)",
-        "case2": "MPM (the end-state surrogate failed its gate)",
+        "case2": "end-state surrogate (failed its gate, run all the same)",
         "site": "MPM (configured)",
     }
     made = {
@@ -47,8 +51,8 @@ def test_the_lead_names_the_route_of_each_case():
     page = Report("r", provenance_line(made, case_routes)).html()
     assert (
         "Made by rgns 0.1.0 (commit 0123456789) from configuration abcdef012345 (SHA-256 prefix) on "
-        "2026-11-25 09:00 UTC. Monte Carlo: case1: end-state surrogate (passed its gate); case2: MPM (the "
-        "end-state surrogate failed its gate); site: MPM (configured)."
+        "2026-11-25 09:00 UTC. Monte Carlo: case1: end-state surrogate (passed its gate); case2: end-state "
+        "surrogate (failed its gate, run all the same); site: MPM (configured)."
     ) in page
 
 
@@ -189,9 +193,9 @@ def synthetic_record(converged: bool, pair_validation: bool) -> dict:
     return record
 
 
-def synthetic_page(tmp_path, record: dict | None) -> str:
+def synthetic_page(tmp_path, record: dict | None, learned: bool = True) -> str:
     """build_report over one Monte Carlo case with ``record`` (None: no multi-fidelity correction) and
-    stand-in figures (any bytes inline)."""
+    stand-in figures (any bytes inline); ``learned`` False: a plain MPM Monte Carlo, no learned simulator."""
     import json
 
     from rgns.report.page import build_report
@@ -228,15 +232,17 @@ def synthetic_page(tmp_path, record: dict | None) -> str:
     return build_report(
         title="r",
         overview={"the_configuration_dump": 1},
-        scenes={"case1": png},
-        learning_curve=png,
-        evaluation={"steps": 10, "valid_loss": 0.01, "valid_mean_predictor_loss": 0.1},
-        validation_table=pd.DataFrame({"case": ["case1"], "metric": ["runout"], "gns_mean": [9.0]}),
-        validation_summary=[{"case": "case1", "realizations": 16, "diverged": 0}],
-        validation_figures={"histograms": png, "parity": png, "energy_case1": png},
+        scenes={"case1": png} if learned else {},
+        learning_curve=png if learned else None,
+        evaluation={"steps": 10, "valid_loss": 0.01, "valid_mean_predictor_loss": 0.1} if learned else None,
+        validation_table=pd.DataFrame({"case": ["case1"], "metric": ["runout"], "gns_mean": [9.0]})
+        if learned
+        else None,
+        validation_summary=[{"case": "case1", "realizations": 16, "diverged": 0}] if learned else [],
+        validation_figures={"histograms": png, "parity": png, "energy_case1": png} if learned else {},
         hazard={"case1": files},
-        gate=GATE,
-        surrogate="endstate",
+        gate=GATE if learned else None,
+        surrogate="endstate" if learned else None,
         made={"version": "0.1.0", "commit": "0123456789", "config_digest": "abcdef012345", "made_utc": "now"},
     )
 
@@ -307,3 +313,18 @@ def test_a_case_without_a_correction_answers_with_its_own_map_unfolded(tmp_path)
     ]
     assert order == sorted(order) and "uncorrected" not in page and "Multi-fidelity check" not in page
     assert page.count("<img") == 1 + 1 + 3 + 3
+
+
+def test_a_plain_mpm_monte_carlo_has_no_model_on_its_page(tmp_path):
+    """montecarlo.simulator: mpm: the route says MPM, and no learned simulator's section, scenes or
+    validation appear (none was trained or validated)."""
+    page = synthetic_page(tmp_path, None, learned=False)
+    assert "case1: MPM (configured)" in page.split("<h2>")[0]
+    assert "case1: the Monte Carlo ran MPM as configured; no surrogate was used." in page
+    assert "<summary>End-state surrogate</summary>" not in page
+    assert "<summary>Validation against MPM on the test cases" not in page
+    assert "<summary>Scenes</summary>" not in page and "Hazard: case1" in page
+    (tmp_path / "learned").mkdir()
+    learned = synthetic_page(tmp_path / "learned", None)  # the same page with a learned simulator has them all
+    assert "<summary>End-state surrogate</summary>" in learned and "<summary>Scenes</summary>" in learned
+    assert "<summary>Validation against MPM on the test cases" in learned

@@ -17,7 +17,7 @@ from rasterio.transform import Affine
 from workflow_helpers import scheduled, snakemake, write_config
 
 from rgns.config import ConfigError, load_yaml, validate_config
-from rgns.hazard.site_gis import exceedance_by_chainage, write_site_gis
+from rgns.hazard.site_gis import best_estimate_zoning, exceedance_by_chainage, write_site_gis
 from rgns.scene.geometry import build_scene
 from rgns.scene.site_section import Section, SiteError, cumulative_length, read_section, sample_dem, site_file
 
@@ -224,6 +224,21 @@ def test_a_csv_section_has_no_map_crs_and_its_geojson_says_it_is_in_the_local_fr
     assert all(np.all(c[:, 1] == 0.0) for c in lines)
 
 
+def test_the_gis_zones_are_the_best_estimate_where_mpm_pairs_corrected_the_case():
+    """The zones a GIS user takes: at the converged mesh where the mesh extrapolation ran, at the accurate mesh
+    where only the correction ran, the simulator's own (and said so) without pairs."""
+    converged = [{"level": "extremely high", "x_from_m": 0.0, "x_to_m": 30.0}]
+    corrected = [{"level": "high", "x_from_m": 0.0, "x_to_m": 30.0}]
+    record = {"high_cell_size_m": 0.5, "zoning": {"zones_corrected": corrected}}
+    assert best_estimate_zoning(ZONING, None)["zones"] == ZONING["zones"]
+    assert "uncorrected" in best_estimate_zoning(ZONING, None)["basis"]
+    only = best_estimate_zoning(ZONING, record)
+    assert only["zones"] == corrected and only["basis"].endswith("MPM at 0.5 m cells")
+    both = best_estimate_zoning(ZONING, record | {"converged": {"zoning": {"zones": converged}}})
+    assert both["zones"] == converged and both["basis"].endswith("converged mesh")
+    assert both["levels"] == ZONING["levels"]
+
+
 def test_exceedance_per_chainage_counts_the_fronts_past_a_point_and_the_scarps_behind_it():
     section = Section(chainage_m=np.arange(0.0, 61.0), elevation_m=np.zeros(61))
     frame = exceedance_by_chainage(_table(), section, 2.0, 40.0, 1.0, 0.95).set_index("x_m")
@@ -345,6 +360,14 @@ def test_a_dem_site_runs_through_the_workflow_to_its_gis_files_and_its_map_in_th
     result = snakemake(work, "--cores", "2", "hazard_map", config=path)
     assert result.returncode == 0, result.stderr[-3000:]
     site = work / "results" / "site" / "hill"
+    # the GeoJSON's zones are the best estimate's, corrected by the site's MPM pairs
+    record = json.loads((work / "results" / "report" / "hill" / "multifidelity.json").read_text())
+    best = record["converged"]["zoning"]["zones"] if "converged" in record else record["zoning"]["zones_corrected"]
+    collection = json.loads((site / "zones.geojson").read_text())
+    assert collection["zones_from"].startswith("the best estimate")
+    assert [f["properties"]["level"] for f in collection["features"]] == [
+        zone["level"] for zone in best if min(zone["x_to_m"], 40.0) > zone["x_from_m"]
+    ]
     meta, lines, attributes = _linestrings(site / "zones.geojson")
     assert meta["crs"] == CRS and attributes["chainage_from_m"].iloc[0] == 0.0
     assert attributes["chainage_to_m"].iloc[-1] == pytest.approx(40.0)  # the domain's length along the line
