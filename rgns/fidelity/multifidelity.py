@@ -554,11 +554,27 @@ def weighted_std(values: np.ndarray, weights: np.ndarray) -> float:
     return math.sqrt(float(weights @ (values - mean) ** 2))
 
 
-def route(cost_high: float, cost_low: float, correlation: float) -> dict[str, Any]:
+def correlation_lower_bound(correlation: float, n: int, confidence: float = 0.95) -> float:
+    """The one-sided lower confidence bound of |ρ| from a sample correlation on n pairs (Fisher's z:
+    atanh(r) ≈ N(atanh(ρ), 1 / (n − 3))), 0 where it falls below 0 or n < 4."""
+    if n < 4:
+        return 0.0
+    z = math.atanh(min(abs(correlation), 1.0 - 1e-12)) - float(stats.norm.ppf(confidence)) / math.sqrt(n - 3)
+    return max(math.tanh(z), 0.0)
+
+
+def route(
+    cost_high: float, cost_low: float, correlation: float, n_pairs: int, confidence: float = 0.95
+) -> dict[str, Any]:
     """Whether the correction pays for the cheap route: MFMC's predicted speed-up at equal error over plain
-    MPM Monte Carlo (:func:`speedup`, optimal allocation). Below 1 — a cheap route so poorly correlated that its
-    runs cost more than they save — plain MPM on as many realizations reaches the same interval for less, and
-    the route is "plain MPM"; unknown costs (NaN) keep the multi-fidelity route."""
+    MPM Monte Carlo (:func:`speedup`, optimal allocation), at the lower ``confidence`` bound of the correlation
+    on the ``n_pairs`` pairs (:func:`correlation_lower_bound`), not its point value: with a cheap run 1,000×
+    cheaper than the MPM any |r| above ~0.03 predicts a gain, and an unrelated cheap route's r on 32 pairs is
+    ~N(0, 0.18). Below 1 — a cheap route that may cost more than it saves — the route is "plain MPM". Power
+    (tests/fidelity/test_stratified_pairs.py, 4,000 draws of 32 normal pairs, costs 25 s and 0.007 s): an
+    uncorrelated cheap route is called plain MPM in 92.8 % of draws (on the point value: 16 %), one correlated
+    0.5 (a 1.3x gain) multi-fidelity in 87.8 %, one correlated 0.7 in 99.9 %.
+    Unknown costs (NaN) keep the multi-fidelity route."""
     rho = float(np.nan_to_num(correlation))
     if not (math.isfinite(cost_high) and math.isfinite(cost_low)):
         return {
@@ -568,19 +584,25 @@ def route(cost_high: float, cost_low: float, correlation: float) -> dict[str, An
             "route": "multi-fidelity",
             "reason": "the routes' costs were not measured",
         }
-    gain = speedup(cost_high, cost_low, rho)
-    plain = gain < 1.0
+    bound = correlation_lower_bound(rho, n_pairs, confidence)
+    gain, assured = speedup(cost_high, cost_low, rho), speedup(cost_high, cost_low, bound)
+    plain = assured < 1.0
+    evidence = (
+        f"the cheap route correlates {rho:.2f} with the accurate MPM on {n_pairs} pairs "
+        f"(at least {bound:.2f} with {confidence:.0%} confidence)"
+    )
     reason = (
-        f"the cheap route correlates {rho:.2f} with the accurate MPM: the correction is {gain:.2f}x the cost of "
-        "plain MPM for the same interval, so plain MPM Monte Carlo on the paired realizations is the cheaper route"
+        f"{evidence}: at that bound the correction may cost {assured:.2f}x plain MPM for the same interval, so "
+        "plain MPM Monte Carlo on the paired realizations is the safe route"
         if plain
-        else f"the cheap route correlates {rho:.2f} with the accurate MPM: {gain:.1f}x cheaper than plain MPM "
-        "at equal error"
+        else f"{evidence}: {gain:.1f}x cheaper than plain MPM at equal error (at least {assured:.1f}x)"
     )
     return {
         "correlation_runout": rho,
+        "correlation_lower_bound": bound,
         "optimal_ratio": optimal_ratio(cost_high, cost_low, rho),
         "speedup_at_equal_error": gain,
+        "speedup_at_the_bound": assured,
         "route": "plain MPM" if plain else "multi-fidelity",
         "reason": reason,
     }

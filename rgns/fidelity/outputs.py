@@ -166,7 +166,7 @@ def correct(
     }
     runout = record["means"]["runout_m"]
     rho = float(np.nan_to_num(runout["correlation"]))
-    record["allocation"] = route(cost["high_s"], cost["low_s"], rho)
+    record["allocation"] = route(cost["high_s"], cost["low_s"], rho, n, confidence)
     if settings.get("target_half_width_m"):
         plan = allocate(
             cost["high_s"],

@@ -235,6 +235,20 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
             if open_ends
             else ""
         )
+        pairs = record["converged"]["n_pairs"]
+        thin = [
+            f"{key.removesuffix('_m')} exceeded with P {p}"
+            for key, entries in record["converged"]["distances"].items()
+            for p, entry in entries.items()
+            if entry.get("mesh_step") is not None and pairs * float(p) < 1.0
+        ]
+        line += (
+            f". The mesh step of the {', '.join(thin)} rests on the extreme of the {pairs} pairs (fewer than one "
+            "expected beyond that probability): its estimate can run low, and only its interval over the order's "
+            "range is measured to hold it (benchmarks/results/pair_coverage.md); read the upper end"
+            if thin
+            else ""
+        )
     return line + ".", excluded
 
 

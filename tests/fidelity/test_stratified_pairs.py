@@ -103,8 +103,26 @@ def test_the_intervals_cover_the_truth_within_3_se_of_95_percent_from_both_sides
 
 
 def test_the_route_is_plain_mpm_when_the_cheap_model_is_uncorrelated():
-    assert route(20.0, 0.02, 0.0)["route"] == "plain MPM"
-    assert route(20.0, 0.02, 0.05)["route"] == "plain MPM"
-    good = route(20.0, 0.02, 0.98)
+    assert route(20.0, 0.02, 0.0, 32)["route"] == "plain MPM"
+    assert route(20.0, 0.02, 0.05, 32)["route"] == "plain MPM"
+    good = route(20.0, 0.02, 0.98, 32)
     assert good["route"] == "multi-fidelity" and good["speedup_at_equal_error"] > 10
-    assert route(float("nan"), 0.02, 0.98)["route"] == "multi-fidelity"
+    assert good["speedup_at_the_bound"] < good["speedup_at_equal_error"]
+    assert route(float("nan"), 0.02, 0.98, 32)["route"] == "multi-fidelity"
+
+
+@pytest.mark.parametrize(
+    ("rho", "plain_share"),
+    [(0.0, (0.90, 1.0)), (0.5, (0.0, 0.25)), (0.7, (0.0, 0.02))],
+)
+def test_the_routes_power_over_sample_correlations_of_32_pairs(rho, plain_share):
+    """The route decides on the correlation's lower confidence bound, not its point: over 4,000 draws of 32
+    bivariate normal pairs at the default's costs (25 s MPM, 0.007 s cheap), an uncorrelated cheap route is
+    called plain MPM in at least 90 % (measured 92.8 %; the point value would call it so in 16 %), one correlated 0.7
+    multi-fidelity in at least 98 %, one correlated 0.5 (a 1.3x gain) in at least 75 %."""
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((4000, 32))
+    y = rho * x + np.sqrt(1 - rho**2) * rng.standard_normal((4000, 32))
+    r = [float(np.corrcoef(a, b)[0, 1]) for a, b in zip(x, y)]
+    share = np.mean([route(25.0, 0.007, value, 32)["route"] == "plain MPM" for value in r])
+    assert plain_share[0] <= share <= plain_share[1], share

@@ -1,0 +1,787 @@
+"""Do the pipeline's intervals hold for the default design (10,000 cheap realizations, 32 random pairs)?
+
+    OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --replicates 200 --seed 20261201
+    OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --sabotage --replicates 100 --seed 20261201
+    .venv/bin/python benchmarks/pair_coverage.py --report       # the tables from what the json holds
+
+Design under test: the default config's (config/config.yaml) multi-fidelity chain for case 1: N =
+montecarlo.realizations cheap runs by montecarlo.fidelity.cheap (tuned: rgns/models/endstate_tuned.pt),
+montecarlo.fidelity.paired of them drawn as a simple random subsample (montecarlo.fidelity.strata: [],
+rgns.fidelity.pair_design.design_pairs with no edges, as rule paired_plan draws them) and re-run by the MPM at
+montecarlo.fidelity.high_cell_size_m and at mesh.cell_size_m, extrapolated at montecarlo.fidelity.mesh_order.
+
+Population (SYNTHETIC, CALIBRATED ON REAL PAIRS; no GPU ran the 10,000 MPM pairs it would take):
+
+* cheap values: the tuned end-state surrogate run on realizations 0 … 9,999 of case 1 as the pipeline's
+  mc_control_chunk runs it (``CaseInputs.from_config``, ``run_realizations`` with simulator "endstate", one
+  thread; benchmarks/cheap_route.py), cached in benchmarks/results/pair_coverage_cheap.npz;
+* MPM values: per metric (runout_m, volume_m2, influence_m), h_0.5 = a + b·cheap + e_0.5 and h_1 = c + d·cheap
+  + e_1, the lines least-squares fits on the 128 real triples (cheap, MPM 0.5 m, MPM 1 m) of case 1's
+  realizations 0-127 (the GPU runs of benchmarks/mesh_levels.py, benchmarks/results/mesh_levels_gpu, with the
+  tuned model on the same realizations: cheap_route.run_model), and the residuals drawn jointly by bootstrap:
+  one real realization per population member gives its (e_0.5, e_1) of every metric, so the residuals'
+  correlation across meshes and across metrics holds. front_x_m = toe + runout and rear_x_m = crest −
+  influence, at each mesh's own toe and crest (constant over case 1's realizations).
+
+Its answers are known exactly: the mean runout and the runout exceeded with P (0.5, 0.1, 0.01) at 0.5 m, and
+at the converged mesh ("the chain's target", as benchmarks/chain_coverage.py defines it): the mean plus the
+Richardson step of the 1 → 0.5 m means at the order's point value; the first 0.25 m grid distance at which the
+population's 0.5 m exceedance curve falls to P plus the step of the paired 1 − P quantiles (Hazen,
+rgns.fidelity.mesh_extrapolation.weighted_quantile). The quantile form (the 0.5 m quantile itself plus the
+step) is reported beside it.
+
+A replicate draws N realizations with replacement from the population (a drawn row is a new realization 0 …
+N − 1), draws the pairs as rule paired_plan does, and estimates exactly as rule multifidelity does
+(workflow/scripts/multifidelity.py → rgns.fidelity.outputs.write_multifidelity: ``correct`` then
+``mesh_extrapolation.converged``, the plan passed as the design; the bootstrap seed is the replicate number). It
+records per quantity the estimate, the interval at the order's point value (sampling alone: the converged
+mean's from ``rgns.fidelity.multilevel.extrapolated`` with the order's interval collapsed to its value, on the
+levels ``converged`` builds, the distances' ``interval_at_order``) and the report's interval (the envelope over
+the order's interval), and the allocation ``correct`` gives (``rgns.fidelity.multifidelity.route``; costs: the
+0.5 m MPM's seconds per realization on one CPU thread, benchmarks/results/mesh_levels, and the tuned model's
+timed here). Coverage: the share of replicates whose interval holds the answer, with its binomial SE; an open
+interval (an end beyond the curves' distances) counts as not covering. A miss "below": the interval lies
+below the answer; "above": above it.
+
+--sabotage: the same population with the cheap rows permuted across realizations (correlation ~0 with the
+MPM). Results are checkpointed to benchmarks/results/pair_coverage.json after every replicate; a rerun with
+the same seed resumes. Writes benchmarks/results/pair_coverage.{md,json}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from dataclasses import replace
+from typing import Any
+
+import cheap_route  # noqa: E402  (benchmarks/ is the script's own folder)
+import mesh_levels as ml  # noqa: E402
+import numpy as np
+import pandas as pd
+import torch
+from scipy import special, stats
+
+from rgns.config import load_config
+from rgns.fidelity import multifidelity
+from rgns.fidelity.mesh_extrapolation import converged, nested_levels, weighted_quantile
+from rgns.fidelity.multifidelity import control_variate, distance_at, rearranged, regression_control_variate, route
+from rgns.fidelity.multilevel import extrapolated, richardson_step
+from rgns.fidelity.outputs import DISTANCE_STEP_M, correct, distance_grid, paired_rows
+from rgns.fidelity.pair_design import design_pairs, row_strata
+from rgns.montecarlo.runs import CaseInputs, run_realizations
+from rgns.surrogates.endstate.model import load_model
+
+REPO = ml.REPO
+OUT = ml.OUT
+CASE = "case1"
+TUNED = REPO / "rgns" / "models" / "endstate_tuned.pt"
+CACHE = OUT / "pair_coverage_cheap.npz"
+RESULT = OUT / "pair_coverage.json"
+REPORT = OUT / "pair_coverage.md"
+REAL = 128  # realizations 0-127 ran at 1 and 0.5 m on the GPU
+METRICS = ml.METRICS
+COLUMNS = (*METRICS, "front_x_m", "rear_x_m")
+MODES = ("normal", "sabotage")
+QUANTITIES = ("mean", "0.5", "0.1", "0.01")  # the mean runout; the runout exceeded with P
+
+
+def population_cheap(config: dict, size: int) -> tuple[dict[str, np.ndarray], float]:
+    """The tuned model's columns on realizations 0 … size − 1 of the case (cached), and its seconds per
+    realization (run_realizations on one thread, in chunks of montecarlo.chunk_size)."""
+    if CACHE.exists():
+        cached = np.load(CACHE)
+        if int(cached["size"]) == size and int(cached["seed"]) == int(config["seed"]):
+            return {key: cached[key] for key in (*COLUMNS, "index", "ok")}, float(cached["seconds"])
+    torch.set_num_threads(1)
+    settings = replace(ml.run_settings(config), simulator="endstate")
+    inputs = CaseInputs.from_config(config, CASE)
+    model = load_model(TUNED)
+    chunk = int(config["montecarlo"]["chunk_size"])
+    tables = []
+    start = time.perf_counter()
+    for first in range(0, size, chunk):
+        tables.append(run_realizations(inputs, list(range(first, min(first + chunk, size))), settings, model))
+        print(f"cheap: {first + len(tables[-1])} of {size} realizations", flush=True)
+    seconds = (time.perf_counter() - start) / size
+    table = pd.concat(tables, ignore_index=True)
+    columns = {key: table[key].to_numpy(float) for key in COLUMNS}
+    columns["index"] = table["index"].to_numpy(int)
+    columns["ok"] = table["status"].isin(["ok"]).to_numpy()
+    np.savez(CACHE, size=size, seed=int(config["seed"]), seconds=seconds, **columns)
+    return columns, seconds
+
+
+def real_triples(config: dict) -> dict[str, Any]:
+    """The 128 real (cheap, MPM 0.5 m, MPM 1 m) values per column, the meshes' toe and crest."""
+    ml.RUNS = OUT / "mesh_levels_gpu"
+    indices, _, _ = ml.saved(CASE, [1.0, 0.5], REAL)
+    assert np.array_equal(indices, np.arange(REAL)), "the GPU runs lack realizations"
+    rows = {h: [json.loads(ml.run_file(CASE, h, int(i)).read_text()) for i in indices] for h in (0.5, 1.0)}
+    cheap, _ = cheap_route.run_model(TUNED, config, CaseInputs.from_config(config, CASE))
+    frame = {h: pd.DataFrame(level) for h, level in rows.items()}
+    result: dict[str, Any] = {
+        key: np.stack([cheap[key], *(frame[h][key].to_numpy(float) for h in (0.5, 1.0))]) for key in METRICS
+    }
+    for h in (0.5, 1.0):
+        for column in ("toe_x_m", "crest_x_m"):
+            values = frame[h][column].to_numpy(float)
+            assert np.ptp(values) < 1e-9, f"{column} varies over the realizations at {h} m"
+            result[f"{column}_{h:g}"] = float(values[0])
+    return result
+
+
+def cpu_seconds(cell: float) -> float:
+    """The MPM's seconds per realization at ``cell`` on one CPU thread (benchmarks/results/mesh_levels)."""
+    paths = sorted((ml.CPU_RUNS / CASE / f"h{cell:g}").glob("*.json"))
+    return float(np.mean([json.loads(path.read_text())["seconds"] for path in paths]))
+
+
+def pearson(x: np.ndarray, y: np.ndarray) -> float:
+    return float(np.corrcoef(x, y)[0, 1])
+
+
+def calibrate(real: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Per metric the least-squares lines of the 0.5 m and 1 m MPM on the cheap value, their residuals [2, 128]
+    and the real correlations."""
+    calibration = {}
+    for key in METRICS:
+        cheap, half, one = real[key]
+        fits = [np.polyfit(cheap, level, 1) for level in (half, one)]
+        residuals = np.stack([level - np.polyval(fit, cheap) for level, fit in zip((half, one), fits)])
+        calibration[key] = {
+            "slope_0.5": float(fits[0][0]),
+            "intercept_0.5": float(fits[0][1]),
+            "slope_1": float(fits[1][0]),
+            "intercept_1": float(fits[1][1]),
+            "residual_sd_0.5": float(residuals[0].std(ddof=2)),
+            "residual_sd_1": float(residuals[1].std(ddof=2)),
+            "residuals": residuals,
+            "real": correlations(cheap, half, one, residuals),
+        }
+    return calibration
+
+
+def correlations(cheap: np.ndarray, half: np.ndarray, one: np.ndarray, residuals: np.ndarray) -> dict[str, float]:
+    """The correlations that set the estimators' variance, and the mesh step's spread."""
+    return {
+        "r_cheap_0.5": pearson(cheap, half),
+        "r_cheap_1": pearson(cheap, one),
+        "r_0.5_1": pearson(half, one),
+        "r_residuals": pearson(residuals[0], residuals[1]),
+        "sd_0.5_minus_1": float(np.std(half - one, ddof=1)),
+        "mean_0.5": float(half.mean()),
+        "mean_1": float(one.mean()),
+        "mean_cheap": float(cheap.mean()),
+    }
+
+
+def synthesize(
+    cheap: dict[str, np.ndarray], calibration: dict, real: dict[str, Any], seed: int
+) -> dict[str, dict[str, np.ndarray]]:
+    """The population: per level ("cheap", 0.5, 1.0) its columns; the MPM's from the fitted lines plus one real
+    realization's residuals per member, drawn for every metric and both meshes together."""
+    finite = cheap["ok"] & np.all([np.isfinite(cheap[key]) for key in COLUMNS], axis=0)
+    low = {key: cheap[key][finite] for key in COLUMNS}
+    donor = np.random.default_rng(seed).integers(0, REAL, len(low["runout_m"]))
+    population: dict[str, dict[str, np.ndarray]] = {"cheap": low, "0.5": {}, "1": {}}
+    for key in METRICS:
+        c = calibration[key]
+        for level, row in (("0.5", 0), ("1", 1)):
+            fitted = c[f"intercept_{level}"] + c[f"slope_{level}"] * low[key]
+            population[level][key] = fitted + c["residuals"][row][donor]
+    for level in ("0.5", "1"):
+        values = population[level]
+        values["front_x_m"] = real[f"toe_x_m_{level}"] + values["runout_m"]
+        values["rear_x_m"] = real[f"crest_x_m_{level}"] - values["influence_m"]
+    return population
+
+
+def sabotaged(population: dict[str, dict[str, np.ndarray]], seed: int) -> dict[str, dict[str, np.ndarray]]:
+    """The population with the cheap rows permuted across its members: a cheap route unrelated to the MPM."""
+    order = np.random.default_rng(seed).permutation(len(population["cheap"]["runout_m"]))
+    return population | {"cheap": {key: values[order] for key, values in population["cheap"].items()}}
+
+
+def answers(population: dict[str, dict[str, np.ndarray]], settings: dict) -> dict[str, dict[str, float]]:
+    """The population's known answers per quantity: at 0.5 m and converged (the chain's target and the
+    quantile form), at the order's point value."""
+    half, one = population["0.5"]["runout_m"], population["1"]["runout_m"]
+    order = float(settings["mesh_order"]["runout_m"][1])
+    ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
+    result = {
+        "mean": {
+            "accurate": float(half.mean()),
+            "coarse": float(one.mean()),
+            "converged": float(half.mean() + richardson_step(half.mean(), one.mean(), ratio, order)),
+        }
+    }
+    d_m = np.arange(0.0, half.max() + 2 * DISTANCE_STEP_M, DISTANCE_STEP_M)
+    exceedance = (half[:, None] > d_m).mean(axis=0)
+    equal = np.full(half.shape, 1.0 / len(half))
+    for p in QUANTITIES[1:]:
+        level = np.array([1.0 - float(p)])
+        q_half, q_one = float(weighted_quantile(half, equal, level)[0]), float(weighted_quantile(one, equal, level)[0])
+        step = float(richardson_step(q_half, q_one, ratio, order))
+        curve = distance_at(d_m, exceedance, float(p))
+        result[p] = {
+            "accurate": curve,
+            "accurate_quantile": q_half,
+            "coarse_quantile": q_one,
+            "converged": curve + step,
+            "converged_quantile": q_half + step,
+        }
+    return result
+
+
+def tables(
+    population: dict[str, dict[str, np.ndarray]], settings: dict, rng: np.random.Generator
+) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, dict]:
+    """One replicate's cheap table (N members drawn with replacement, realizations 0 … N − 1), the pairs' plan
+    (rule paired_plan) and their rows at the accurate and the coarse mesh."""
+    size, big_n = len(population["cheap"]["runout_m"]), int(settings["realizations"])
+    picks = rng.integers(0, size, big_n)
+
+    def table(level: str, rows: np.ndarray, index: np.ndarray) -> pd.DataFrame:
+        return pd.DataFrame({"index": index, "status": "ok"} | {k: population[level][k][rows] for k in COLUMNS})
+
+    low = table("cheap", picks, np.arange(big_n))
+    plan = design_pairs(
+        low["index"].to_numpy(),
+        low["runout_m"].to_numpy(float),
+        int(settings["paired"]),
+        list(settings["strata"]),
+        int(settings["min_per_stratum"]),
+        int(rng.integers(0, 2**31)),
+    ).to_record()
+    chosen = np.asarray(plan["indices"])
+    high, coarse = (table(level, picks[chosen], chosen) for level in ("0.5", "1"))
+    return low, high, coarse, plan
+
+
+class _Normal:
+    """scipy.stats.norm with ``cdf`` as the special function it evaluates (scipy's ``_norm_cdf`` is
+    ``special.ndtr``; for loc 0 and scale 1 the generic wrapper returns the same numbers, NaN and ±inf included)
+    without the wrapper's masking, which took half of a replicate's time."""
+
+    def cdf(self, x: Any) -> Any:
+        return special.ndtr(np.asarray(x, dtype=float))
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(stats.norm, name)
+
+
+class _Stats:
+    """scipy.stats as rgns.fidelity.multifidelity sees it, with :class:`_Normal` as ``norm``."""
+
+    norm = _Normal()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(stats, name)
+
+
+def fast_normal(on: bool) -> None:
+    """Swap rgns.fidelity.multifidelity's scipy.stats for :class:`_Stats` (in this process only) or back."""
+    multifidelity.stats = _Stats() if on else stats  # type: ignore[assignment]
+
+
+def runout_correction(
+    low: pd.DataFrame, high: pd.DataFrame, settings: dict, cost: dict[str, float], seed: int, design: dict
+) -> dict[str, Any]:
+    """What ``rgns.fidelity.outputs.correct`` records that the runout's converged estimates and the allocation
+    read, by the same calls: the corrected mean runout's correlation (its control variate) → the allocation,
+    and the runout's exceedance curve (regression control variate, rearranged, its distances). The rest of
+    ``correct`` (volume, influence, their curves, the zoning, the pairs' validation: three quarters of its time)
+    changes none of them; :func:`check` asserts that the full path gives the same numbers."""
+    low, high = paired_rows(low, high)
+    n, confidence, key = len(high), settings["confidence"], "runout_m"
+    strata = row_strata(design, low["index"].tolist(), n)
+    mean = control_variate(
+        high[[key]].to_numpy(float), low[[key]].to_numpy(float), confidence, seed=seed, strata=strata
+    )
+    d_m = distance_grid(pd.concat([low[key], high[key]]).to_numpy(float))
+    curve = regression_control_variate(
+        high[key].to_numpy(float), low[key].to_numpy(float), d_m, confidence=confidence, seed=seed, strata=strata
+    )
+    corrected = rearranged(curve.estimate)
+    exceedance = {
+        "d_m": d_m.tolist(),
+        "corrected": corrected.tolist(),
+        "lower": rearranged(curve.lower).tolist(),
+        "upper": rearranged(curve.upper).tolist(),
+        "distances": {
+            str(p): {"corrected": distance_at(d_m, corrected, p)} for p in settings["exceedance_probabilities"]
+        },
+    }
+    rho = float(np.nan_to_num(np.asarray(mean.correlation).tolist()[0]))
+    allocation = route(cost["high_s"], cost["low_s"], rho, len(high), confidence)
+    return {"exceedance": {key: exceedance}, "allocation": allocation}
+
+
+def run_replicate(
+    population: dict, settings: dict, cost: dict[str, float], rng: np.random.Generator, seed: int, full: bool = False
+) -> dict:
+    """One replicate through rule multifidelity's estimators: per quantity the estimate, the interval at the
+    order's value and the report's, the accurate-mesh estimate and its interval; the allocation. ``full``: the
+    whole ``correct`` with scipy's own normal; else :func:`runout_correction` with :func:`fast_normal`."""
+    low, high, coarse, plan = tables(population, settings, rng)
+    fast_normal(not full)
+    try:
+        if full:
+            record = correct(low, high, settings, cost, seed=seed, design=plan)
+        else:
+            record = runout_correction(low, high, settings, cost, seed, plan)
+        chain = converged(low, high, coarse, settings, record, seed=seed, design=plan)
+        ratio = chain["ratio"]
+        order = float(settings["mesh_order"]["runout_m"][1])
+        fine, rough, cheap = nested_levels(low, high, coarse)
+        strata = row_strata(plan, cheap["index"].tolist(), len(fine))  # as converged weighs them
+        levels = [t[["runout_m"]].to_numpy(float) for t in (fine, rough, cheap)]
+        at_order = extrapolated(levels, ratio, order, (order, order), settings["confidence"], seed=seed, strata=strata)
+    finally:
+        fast_normal(False)
+    mean = chain["means"]["runout_m"]
+    assert abs(float(at_order.estimate[0]) - mean["estimate"]) < 1e-9
+    found: dict[str, Any] = {
+        "mean": {
+            "estimate": mean["estimate"],
+            "at_order": [float(at_order.lower[0]), float(at_order.upper[0])],
+            "report": [mean["lower"], mean["upper"]],
+            "accurate": mean["accurate"],
+            "accurate_interval": [mean["accurate_lower"], mean["accurate_upper"]],
+        }
+    }
+    for p in QUANTITIES[1:]:
+        entry = chain["distances"]["runout_m"][p]
+        found[p] = {
+            "estimate": entry["estimate"],
+            "at_order": entry["interval_at_order"],
+            "report": [entry["lower"], entry["upper"]],
+            "accurate": entry["accurate"],
+            "accurate_interval": entry["accurate_band"],
+        }
+    allocation = record["allocation"]
+    keys = ("route", "reason", "correlation_runout", "speedup_at_equal_error")
+    found["allocation"] = {key: allocation[key] for key in keys}
+    return found
+
+
+def check(population: dict, settings: dict, cost: dict[str, float], rng_seed: list[int], seed: int) -> dict:
+    """One replicate by the fast path and by the full one (``correct`` whole, scipy's own normal): the fast
+    one's record, after asserting that both give the same numbers."""
+    fast = run_replicate(population, settings, cost, np.random.default_rng(rng_seed), seed)
+    full = run_replicate(population, settings, cost, np.random.default_rng(rng_seed), seed, full=True)
+    assert fast == full, f"the fast path differs from the full one:\n{fast}\n{full}"
+    return fast
+
+
+def checkpoint(result: dict) -> None:
+    """The results so far, written atomically."""
+    temporary = RESULT.with_suffix(".json.tmp")
+    temporary.write_text(json.dumps(result, indent=1) + "\n")
+    os.replace(temporary, RESULT)
+
+
+def verdict(interval: list[float | None], answer: float) -> str:
+    """ "in", "below" (the interval lies below the answer), "above", or "open" (an end left open)."""
+    lower, upper = interval
+    if lower is None or upper is None:
+        return "open"
+    return "below" if upper < answer else "above" if lower > answer else "in"
+
+
+def summary(records: list[dict], truth: dict[str, dict[str, float]]) -> dict[str, dict]:
+    """Per quantity, target and interval: coverage with its binomial SE, misses below and above, open
+    intervals, the mean half-width; the estimate's mean error."""
+    count = len(records)
+    se = float(np.sqrt(0.95 * 0.05 / max(count, 1)))
+    result: dict[str, dict] = {}
+    for quantity in QUANTITIES:
+        rows = [r[quantity] for r in records]
+        known = truth[quantity]
+        targets = {"converged": known["converged"]}
+        if quantity != "mean":
+            targets["converged_quantile"] = known["converged_quantile"]
+        estimates = np.array([np.nan if r["estimate"] is None else r["estimate"] for r in rows], dtype=float)
+        entry: dict[str, Any] = {"replicates": count, "se": se, "mean_estimate": float(np.nanmean(estimates))}
+        for target, answer in targets.items():
+            errors = estimates - answer
+            finite = int(np.isfinite(errors).sum())
+            entry[target] = {
+                "answer": answer,
+                "mean_error": float(np.nanmean(errors)),
+                "error_se": float(np.nanstd(errors, ddof=1) / np.sqrt(finite)) if finite > 1 else float("nan"),
+            }
+            for interval in ("at_order", "report"):
+                outcomes = [verdict(r[interval], answer) for r in rows]
+                entry[target][interval] = tally(outcomes, [r[interval] for r in rows], se)
+        accurate = known["accurate"]
+        entry["decomposition"] = decomposition(rows, accurate, known["converged"] - accurate)
+        outcomes = [verdict(r["accurate_interval"], accurate) for r in rows]
+        entry["accurate"] = {"answer": accurate} | tally(outcomes, [r["accurate_interval"] for r in rows], se)
+        result[quantity] = entry
+    return result
+
+
+def decomposition(rows: list[dict], accurate: float, step: float) -> dict[str, Any]:
+    """The estimate's error split: its accurate-mesh part (the corrected 0.5 m value against the population's)
+    and its mesh step (estimate − accurate part, against the population's step), each mean ± SE."""
+    values = np.array([[np.nan if v is None else v for v in (r["accurate"], r["estimate"])] for r in rows], dtype=float)
+    parts = {"accurate_error": values[:, 0] - accurate, "step_error": values[:, 1] - values[:, 0] - step}
+    result: dict[str, Any] = {"step_answer": step}
+    for name, errors in parts.items():
+        finite = errors[np.isfinite(errors)]
+        se = float(finite.std(ddof=1) / np.sqrt(finite.size)) if finite.size > 1 else float("nan")
+        result[name] = [float(finite.mean()) if finite.size else float("nan"), se]
+    return result
+
+
+def tally(outcomes: list[str], intervals: list[list[float | None]], se: float) -> dict[str, Any]:
+    """Coverage of one interval over the replicates."""
+    coverage = outcomes.count("in") / max(len(outcomes), 1)
+    widths = [(u - lo) / 2.0 for lo, u in intervals if lo is not None and u is not None]
+    return {
+        "coverage": coverage,
+        "within_3se": bool(abs(coverage - 0.95) <= 3 * se),
+        "below": outcomes.count("below"),
+        "above": outcomes.count("above"),
+        "open": outcomes.count("open"),
+        "half_width": float(np.mean(widths)) if widths else float("nan"),
+    }
+
+
+def allocation_summary(records: list[dict], meta: dict[str, Any]) -> dict[str, Any]:
+    """How often the allocation says each route, the correlation's spread, a reason of each route: the route
+    as rgns.fidelity.multifidelity.route decides it now, from each replicate's paired correlation (so a
+    change of the rule re-reads the replicates without re-running them)."""
+    design = meta["design"]
+    decided = [
+        route(meta["cost"]["high_s"], meta["cost"]["low_s"], r["allocation"]["correlation_runout"],
+              design["paired"], design["confidence"])
+        for r in records
+    ]  # fmt: skip
+    routes = [a["route"] for a in decided]
+    rho = np.array([a["correlation_runout"] for a in decided], dtype=float)
+    return {
+        "routes": {name: routes.count(name) for name in sorted(set(routes))},
+        "correlation_mean": float(rho.mean()),
+        "correlation_range": [float(rho.min()), float(rho.max())],
+        "reasons": {a["route"]: a["reason"] for a in decided},
+    }
+
+
+def fmt(value: float | None, digits: int = 2) -> str:
+    return "open" if value is None or not np.isfinite(value) else f"{value:.{digits}f}"
+
+
+def cell(c: dict, se: str) -> str:
+    """One interval's cells: coverage, within 3 SE, misses, mean half-width."""
+    within = "yes" if c["within_3se"] else "NO"
+    return f"{c['coverage']:.3f}{se} | {within} | {c['below']} / {c['above']} / {c['open']} | {fmt(c['half_width'], 3)}"
+
+
+def coverage_table(mode: dict) -> list[str]:
+    """The coverage table of one mode: per quantity and target, the interval at the order's value (sampling)
+    and the report's (the envelope over the order's interval)."""
+    lines = [
+        "| quantity | target | known answer | mean estimate (error ± 2 SE) | sampling interval: coverage (SE) | "
+        "within 3 SE of 95 % | misses below / above / open | mean half-width | report's interval: coverage | "
+        "within 3 SE | misses below / above / open | mean half-width |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    names = {"mean": "mean runout", **{p: f"R exceeded with P {p}" for p in QUANTITIES[1:]}}
+    targets = {"converged": "chain's target", "converged_quantile": "quantile form"}
+    for quantity, entry in mode["summary"].items():
+        for target, label in targets.items():
+            if target not in entry:
+                continue
+            row = entry[target]
+            se = f" ({entry['se']:.3f})"
+            cells = [cell(row["at_order"], se), cell(row["report"], "")]
+            lines.append(
+                f"| {names[quantity]} | {label} | {row['answer']:.3f} | {entry['mean_estimate']:.3f} "
+                f"({row['mean_error']:+.3f} ± {2 * row['error_se']:.3f}) | {cells[0]} | {cells[1]} |"
+            )
+    return lines
+
+
+def accurate_table(mode: dict) -> list[str]:
+    lines = [
+        "| quantity | answer at 0.5 m | interval | coverage (SE) | within 3 SE | misses below / above / open | "
+        "mean half-width |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for quantity, entry in mode["summary"].items():
+        row = entry["accurate"]
+        name = "mean runout" if quantity == "mean" else f"R exceeded with P {quantity}"
+        interval = "multilevel (converged's accurate_lower/upper)" if quantity == "mean" else "corrected curve's band"
+        lines.append(
+            f"| {name} | {row['answer']:.3f} | {interval} | {row['coverage']:.3f} ({entry['se']:.3f}) | "
+            f"{'yes' if row['within_3se'] else 'NO'} | {row['below']} / {row['above']} / {row['open']} | "
+            f"{fmt(row['half_width'], 3)} |"
+        )
+    return lines
+
+
+def write_report(result: dict) -> None:
+    """The md from the json."""
+    meta = result["meta"]
+    lines = [
+        "# Coverage of the default design: 10,000 cheap realizations, 32 random MPM pairs (case 1)",
+        "",
+        "**The population is SYNTHETIC, CALIBRATED ON REAL PAIRS** (no GPU ran 10,000 MPM pairs): the cheap values "
+        f"are the tuned end-state surrogate's on case 1's realizations 0-{meta['population'] - 1} (run here as the "
+        "pipeline runs it), the MPM values at 0.5 and 1 m a least-squares line of each on the cheap value plus "
+        f"residuals bootstrapped jointly (per member one real realization's residuals of every metric at both meshes) "
+        f"from the {REAL} real triples of `benchmarks/results/mesh_levels_gpu` (realizations 0-{REAL - 1}). Method: the "
+        "docstring of `benchmarks/pair_coverage.py`.",
+        "",
+        "Commands (one thread, `nice -n 19`, on a 2-core machine shared with a timed run):",
+        "",
+        "```",
+        *meta["commands"],
+        "```",
+        "",
+        f"Design (config/config.yaml): N = {meta['design']['realizations']} cheap ({meta['design']['cheap']}), "
+        f"{meta['design']['paired']} pairs, strata {meta['design']['strata']} (a simple random subsample), accurate "
+        f"MPM at {meta['design']['high_cell_size_m']} m, coarse partner at {meta['design']['coarse_cell_size_m']} m, "
+        f"order of the runout {meta['design']['order'][1]} [{meta['design']['order'][0]}, {meta['design']['order'][2]}]"
+        f", confidence {meta['design']['confidence']}. Costs given to the allocation: {meta['cost']['high_s']:.1f} s "
+        f"per 0.5 m MPM realization (one CPU thread, `benchmarks/results/mesh_levels`), {meta['cost']['low_s']:.4f} s "
+        "per cheap one (timed here).",
+        "",
+        "## Calibration on the real pairs",
+        "",
+        "| metric | 0.5 m = a + b·cheap | residual sd | 1 m = c + d·cheap | residual sd | r(cheap, 0.5 m) real / "
+        "synthetic | r(cheap, 1 m) real / synthetic | r(0.5 m, 1 m) real / synthetic | r of the residuals real / "
+        "synthetic | sd(0.5 m − 1 m) real / synthetic |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for key, c in meta["calibration"].items():
+        real, synthetic = c["real"], c["synthetic"]
+        pair = " | ".join(
+            f"{real[name]:.3f} / {synthetic[name]:.3f}"
+            for name in ("r_cheap_0.5", "r_cheap_1", "r_0.5_1", "r_residuals", "sd_0.5_minus_1")
+        )
+        lines.append(
+            f"| {key} | {c['intercept_0.5']:.3f} + {c['slope_0.5']:.3f}·cheap | {c['residual_sd_0.5']:.3f} | "
+            f"{c['intercept_1']:.3f} + {c['slope_1']:.3f}·cheap | {c['residual_sd_1']:.3f} | {pair} |"
+        )
+    pop = meta["population_stats"]
+    lines += [
+        "",
+        f"Population: {meta['population']} members ({meta['dropped']} cheap runs left out: not finished or not "
+        f"finite). Cheap runout over the population: mean {pop['cheap_mean']:.3f} m, 1st / 99th percentile "
+        f"{pop['cheap_p01']:.2f} / {pop['cheap_p99']:.2f} m; over the real {REAL}: {pop['real_cheap_p01']:.2f} / "
+        f"{pop['real_cheap_p99']:.2f} m (their range {pop['real_cheap_min']:.2f}-{pop['real_cheap_max']:.2f} m): "
+        "the population's tail beyond it rests on the fitted line's extrapolation and the real residuals.",
+        "",
+        "Known answers (runout, m):",
+        "",
+        "| quantity | 0.5 m | converged: chain's target | converged: quantile form | 0.5 m quantile (Hazen) | "
+        "1 m quantile |",
+        "|---|---|---|---|---|---|",
+    ]
+    truth = meta["answers"]
+    lines.append(f"| mean | {truth['mean']['accurate']:.3f} | {truth['mean']['converged']:.3f} | — | — | — |")
+    for p in QUANTITIES[1:]:
+        t = truth[p]
+        lines.append(
+            f"| exceeded with P {p} | {t['accurate']:.3f} (curve, 0.25 m grid) | {t['converged']:.3f} | "
+            f"{t['converged_quantile']:.3f} | {t['accurate_quantile']:.3f} | {t['coarse_quantile']:.3f} |"
+        )
+    for mode_name in MODES:
+        mode = result.get(mode_name)
+        if not mode or not mode.get("replicates"):
+            continue
+        title = "Normal" if mode_name == "normal" else "Sabotage: the cheap rows permuted across realizations"
+        lines += [
+            "",
+            f"## {title}: {len(mode['replicates'])} replicates (seed {mode['seed']})",
+            "",
+            f"Wall seconds per replicate on one thread: median {np.median(mode['seconds']):.1f}, mean "
+            f"{np.mean(mode['seconds']):.1f} "
+            "(the mean holds the spells when the process was paused while a timed run used both cores). "
+            "Coverage of the converged answer:",
+            "",
+            *coverage_table(mode),
+            "",
+            "At the accurate mesh (0.5 m) alone, the corrected estimate against the population's 0.5 m answer:",
+            "",
+            *accurate_table(mode),
+        ]
+        lines += [
+            "",
+            "The converged estimate's error, split into its accurate-mesh part and its mesh step (mean ± 2 SE, m):",
+            "",
+            "| quantity | accurate part − 0.5 m answer | mesh step − the population's step | the population's step |",
+            "|---|---|---|---|",
+        ]
+        for quantity, entry in mode["summary"].items():
+            d = entry["decomposition"]
+            name = "mean runout" if quantity == "mean" else f"R exceeded with P {quantity}"
+            accurate, step = d["accurate_error"], d["step_error"]
+            lines.append(
+                f"| {name} | {accurate[0]:+.3f} ± {2 * accurate[1]:.3f} | {step[0]:+.3f} ± {2 * step[1]:.3f} | "
+                f"{d['step_answer']:.3f} |"
+            )
+        allocation = mode["allocation"]
+        lines += [
+            "",
+            'Allocation (`multifidelity.json`\'s "allocation", `rgns.fidelity.multifidelity.route`): '
+            + ", ".join(f'"{name}" in {count}' for name, count in allocation["routes"].items())
+            + f" of {len(mode['replicates'])} replicates; paired correlation of the runout "
+            f"{allocation['correlation_mean']:.3f} on average ({allocation['correlation_range'][0]:.3f} to "
+            f"{allocation['correlation_range'][1]:.3f}).",
+        ]
+        for name, reason in allocation["reasons"].items():
+            lines.append(f'* {name}, e.g.: "{reason}"')
+    if all(result.get(name, {}).get("replicates") for name in MODES):
+        lines += [
+            "",
+            "## Sabotage against normal: mean half-widths (m)",
+            "",
+            "| quantity | interval | normal | sabotage | ratio |",
+            "|---|---|---|---|---|",
+        ]
+        for quantity in QUANTITIES:
+            for interval, label in (("at_order", "sampling"), ("report", "report's")):
+                widths = [result[name]["summary"][quantity]["converged"][interval]["half_width"] for name in MODES]
+                name = "mean runout" if quantity == "mean" else f"R exceeded with P {quantity}"
+                lines.append(f"| {name} | {label} | {widths[0]:.3f} | {widths[1]:.3f} | {widths[1] / widths[0]:.2f} |")
+    if result.get("findings"):
+        lines += ["", "## What it says", "", *result["findings"]]
+    lines.append("")
+    REPORT.write_text("\n".join(lines))
+
+
+def prepare(args: argparse.Namespace) -> tuple[dict, dict, dict, dict]:
+    """Settings, the population (sabotaged with --sabotage), its answers, and the results' meta."""
+    config = load_config(REPO / "config" / "config.yaml")
+    settings = ml.pipeline_settings(config) | {"realizations": int(config["montecarlo"]["realizations"])}
+    cheap, cheap_s = population_cheap(config, int(config["montecarlo"]["realizations"]))
+    real = real_triples(config)
+    for key in METRICS:  # the population's first realizations are the real ones: the same cheap values
+        assert np.allclose(cheap[key][:REAL], real[key][0], equal_nan=True), f"cheap {key} differs from cheap_route's"
+    calibration = calibrate(real)
+    population = synthesize(cheap, calibration, real, args.population_seed)
+    for key in METRICS:
+        residuals = np.stack(
+            [
+                population[level][key]
+                - np.polyval(np.polyfit(population["cheap"][key], population[level][key], 1), population["cheap"][key])
+                for level in ("0.5", "1")
+            ]
+        )
+        calibration[key]["synthetic"] = correlations(
+            population["cheap"][key], population["0.5"][key], population["1"][key], residuals
+        )
+    cost = {"high_s": cpu_seconds(0.5), "low_s": cheap_s}
+    truth = answers(population, settings)
+    size = len(population["cheap"]["runout_m"])
+    runout = population["cheap"]["runout_m"]
+    meta = {
+        "design": {
+            "realizations": settings["realizations"],
+            "cheap": settings["cheap"],
+            "paired": settings["paired"],
+            "strata": settings["strata"],
+            "high_cell_size_m": settings["high_cell_size_m"],
+            "coarse_cell_size_m": settings["coarse_cell_size_m"],
+            "order": settings["mesh_order"]["runout_m"],
+            "confidence": settings["confidence"],
+        },
+        "population": size,
+        "dropped": int(len(cheap["runout_m"]) - size),
+        "population_seed": args.population_seed,
+        "cost": cost,
+        "calibration": {key: {k: v for k, v in c.items() if k != "residuals"} for key, c in calibration.items()},
+        "population_stats": {
+            "cheap_mean": float(runout.mean()),
+            "cheap_p01": float(np.quantile(runout, 0.01)),
+            "cheap_p99": float(np.quantile(runout, 0.99)),
+            "real_cheap_p01": float(np.quantile(real["runout_m"][0], 0.01)),
+            "real_cheap_p99": float(np.quantile(real["runout_m"][0], 0.99)),
+            "real_cheap_min": float(real["runout_m"][0].min()),
+            "real_cheap_max": float(real["runout_m"][0].max()),
+        },
+        "answers": truth,
+    }
+    return settings, population, truth, meta
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--replicates", type=int, default=200)
+    parser.add_argument("--seed", type=int, default=20261201, help="of the replicates' draws and the sabotage")
+    parser.add_argument("--population-seed", type=int, default=20261130, help="of the synthetic residuals' draw")
+    parser.add_argument("--sabotage", action="store_true", help="the cheap rows permuted across realizations")
+    parser.add_argument("--minutes", type=float, default=None, help="stop starting replicates after this long")
+    parser.add_argument("--report", action="store_true", help="only write the md from the json")
+    args = parser.parse_args()
+    if args.report:  # the summaries recomputed from the replicates, then the md
+        result = json.loads(RESULT.read_text())
+        for name in MODES:
+            if result.get(name, {}).get("replicates"):
+                mode = result[name]
+                mode["summary"] = summary(mode["replicates"], result["meta"]["answers"])
+                mode["allocation"] = allocation_summary(mode["replicates"], result["meta"])
+        checkpoint(result)
+        write_report(result)
+        print(REPORT.read_text())
+        return
+    torch.set_num_threads(1)
+    began = time.perf_counter()
+    settings, population, truth, meta = prepare(args)
+    name = "sabotage" if args.sabotage else "normal"
+    if args.sabotage:
+        population = sabotaged(population, args.seed)  # the answers stand: the MPM values are the same
+    result = json.loads(RESULT.read_text()) if RESULT.exists() else {}
+    if result.get("meta", {}).get("population_seed") not in (None, args.population_seed):
+        result = {}  # another population: start over
+    command = (
+        f"OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --replicates {args.replicates} "
+        f"--seed {args.seed}" + (" --sabotage" if args.sabotage else "")
+    )
+    commands = [c for c in result.get("meta", {}).get("commands", []) if ("--sabotage" in c) != args.sabotage]
+    result["meta"] = meta | {"commands": sorted([*commands, command], key=lambda c: "--sabotage" in c)}
+    mode = result.get(name, {})
+    if mode.get("seed") != args.seed:
+        mode = {"seed": args.seed, "replicates": [], "seconds": []}
+    result[name] = mode
+    print(
+        f"{name}: {len(mode['replicates'])} replicates done before; setup {time.perf_counter() - began:.0f} s",
+        flush=True,
+    )
+    start = time.perf_counter()
+    for number in range(len(mode["replicates"]), args.replicates):
+        if args.minutes is not None and time.perf_counter() - start > 60.0 * args.minutes:
+            print(f"{name}: stopped after {args.minutes} minutes", flush=True)
+            break
+        tick = time.perf_counter()
+        rng_seed = [args.seed, number, int(args.sabotage)]
+        if number == 0:  # the fast path against rule multifidelity's own, once per run
+            mode["replicates"].append(check(population, settings, meta["cost"], rng_seed, number))
+            mode["checked"] = (
+                "replicate 0: the fast path's numbers equal those of the full correct() with scipy's normal"
+            )
+            print(f"{name}: {mode['checked']} ({time.perf_counter() - tick:.0f} s for both)", flush=True)
+            tick = time.perf_counter()
+            run_replicate(population, settings, meta["cost"], np.random.default_rng(rng_seed), number)
+        else:
+            rng = np.random.default_rng(rng_seed)
+            mode["replicates"].append(run_replicate(population, settings, meta["cost"], rng, number))
+        mode["seconds"].append(time.perf_counter() - tick)
+        mode["seconds_per_replicate"] = float(np.median(mode["seconds"]))
+        mode["summary"] = summary(mode["replicates"], truth)
+        mode["allocation"] = allocation_summary(mode["replicates"], result["meta"])
+        checkpoint(result)
+        print(f"{name}: replicate {number + 1} of {args.replicates}, {mode['seconds'][-1]:.1f} s", flush=True)
+    write_report(result)
+    print(REPORT.read_text())
+
+
+if __name__ == "__main__":
+    main()
