@@ -266,17 +266,16 @@ def mc_model(wildcards):
     return [SURROGATE_MODEL] if config["montecarlo"]["simulator"] != "mpm" else []
 
 
-def mc_gate(wildcards):
-    """The validation gate's verdicts, when a learned simulator is the Monte Carlo's and
-    validation.acceptance.on_failure is stop (a case it fails stops); with report it decides nothing."""
-    stop = config["validation"]["acceptance"]["on_failure"] == "stop"
-    return ["results/report/validation/gate.json"] if stop and config["montecarlo"]["simulator"] != "mpm" else []
-
-
 def report_gate(wildcards):
     """The validation gate's verdicts for the report's top, whenever a learned simulator ran the Monte Carlo
     (whether or not the gate decides anything)."""
-    return ["results/report/validation/gate.json"] if config["montecarlo"]["simulator"] != "mpm" else []
+    return ["results/report/validation/gate.json"] if SURROGATE else []
+
+
+def mc_gate(wildcards):
+    """The validation gate's verdicts, when a learned simulator is the Monte Carlo's and
+    validation.acceptance.on_failure is stop (a case it fails stops); with report it decides nothing."""
+    return report_gate(wildcards) if config["validation"]["acceptance"]["on_failure"] == "stop" else []
 
 
 def mc_chunks(wildcards):

@@ -16,9 +16,9 @@ if snakemake.input.realizations:  # strata: the finished cheap runs and their ru
     cheap = read_csv(snakemake.input.realizations[0])
     cheap = cheap[cheap["status"].isin(FINISHED)]
     index, runout = cheap["index"].to_numpy(), cheap["runout_m"].to_numpy(float)
-else:  # one stratum: every realization, whatever the cheap route says of it
+else:  # one stratum: every realization, whatever the cheap route says of it (no runout read: bounds unknown)
     index = np.arange(settings["realizations"])
-    runout = np.zeros(index.size)
+    runout = np.full(index.size, np.nan)
 design = design_pairs(
     index, runout, settings["paired"], list(settings["strata"]), settings["min_per_stratum"], settings["seed"]
 )
