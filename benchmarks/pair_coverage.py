@@ -26,9 +26,8 @@ Population (SYNTHETIC, CALIBRATED ON REAL PAIRS; no GPU ran the 10,000 MPM pairs
 Its answers are known exactly: the mean runout and the runout exceeded with P (0.5, 0.1, 0.01) at 0.5 m, and
 at the converged mesh ("the chain's target", as benchmarks/chain_coverage.py defines it): the mean plus the
 Richardson step of the 1 → 0.5 m means at the order's point value; the first 0.25 m grid distance at which the
-population's 0.5 m exceedance curve falls to P plus the step of the paired 1 − P quantiles (Hazen,
-rgns.fidelity.mesh_extrapolation.weighted_quantile). The quantile form (the 0.5 m quantile itself plus the
-step) is reported beside it.
+population's 0.5 m exceedance curve falls to P plus the step of its 1 − P quantiles at 0.5 and 1 m (Hazen).
+The quantile form (the 0.5 m quantile itself plus the step) is reported beside it.
 
 A replicate draws N realizations with replacement from the population (a drawn row is a new realization 0 …
 N − 1), draws the pairs as rule paired_plan does, and estimates exactly as rule multifidelity does
@@ -39,7 +38,9 @@ mean's from ``rgns.fidelity.multilevel.extrapolated`` with the order's interval 
 levels ``converged`` builds, the distances' ``interval_at_order``) and the report's interval (the envelope over
 the order's interval), and the allocation ``correct`` gives (``rgns.fidelity.multifidelity.route``; costs: the
 0.5 m MPM's seconds per realization on one CPU thread, benchmarks/results/mesh_levels, and the tuned model's
-timed here). Coverage: the share of replicates whose interval holds the answer, with its binomial SE; an open
+timed here). Coverage: the share of replicates whose interval holds the answer, with its binomial SE; an
+interval open above whose lower end is at most the answer holds it (the plain MPM route leaves open the tail
+its pairs cannot bound: rgns.fidelity.outputs.open_unreached_tails); any other open
 interval (an end beyond the curves' distances) counts as not covering. A miss "below": the interval lies
 below the answer; "above": above it.
 
@@ -66,10 +67,18 @@ from scipy import special, stats
 
 from rgns.config import load_config
 from rgns.fidelity import multifidelity
-from rgns.fidelity.mesh_extrapolation import converged, nested_levels, weighted_quantile
+from rgns.fidelity.mesh_extrapolation import converged, nested_levels
 from rgns.fidelity.multifidelity import control_variate, distance_at, rearranged, regression_control_variate, route
 from rgns.fidelity.multilevel import extrapolated, richardson_step
-from rgns.fidelity.outputs import DISTANCE_STEP_M, correct, distance_grid, paired_rows
+from rgns.fidelity.outputs import (
+    DISTANCE_STEP_M,
+    correct,
+    distance_grid,
+    flattened,
+    open_unreached_tails,
+    paired_rows,
+    with_plain_estimate,
+)
 from rgns.fidelity.pair_design import design_pairs, row_strata
 from rgns.montecarlo.runs import CaseInputs, run_realizations
 from rgns.surrogates.endstate.model import load_model
@@ -220,10 +229,9 @@ def answers(population: dict[str, dict[str, np.ndarray]], settings: dict) -> dic
     }
     d_m = np.arange(0.0, half.max() + 2 * DISTANCE_STEP_M, DISTANCE_STEP_M)
     exceedance = (half[:, None] > d_m).mean(axis=0)
-    equal = np.full(half.shape, 1.0 / len(half))
     for p in QUANTITIES[1:]:
-        level = np.array([1.0 - float(p)])
-        q_half, q_one = float(weighted_quantile(half, equal, level)[0]), float(weighted_quantile(one, equal, level)[0])
+        level = 1.0 - float(p)
+        q_half, q_one = (float(np.quantile(values, level, method="hazen")) for values in (half, one))
         step = float(richardson_step(q_half, q_one, ratio, order))
         curve = distance_at(d_m, exceedance, float(p))
         result[p] = {
@@ -288,7 +296,13 @@ def fast_normal(on: bool) -> None:
 
 
 def runout_correction(
-    low: pd.DataFrame, high: pd.DataFrame, settings: dict, cost: dict[str, float], seed: int, design: dict
+    low: pd.DataFrame,
+    high: pd.DataFrame,
+    settings: dict,
+    cost: dict[str, float],
+    seed: int,
+    design: dict,
+    grids: dict[str, list[float]] | None = None,
 ) -> dict[str, Any]:
     """What ``rgns.fidelity.outputs.correct`` records that the runout's converged estimates and the allocation
     read, by the same calls: the corrected mean runout's correlation (its control variate) → the allocation,
@@ -301,7 +315,7 @@ def runout_correction(
     mean = control_variate(
         high[[key]].to_numpy(float), low[[key]].to_numpy(float), confidence, seed=seed, strata=strata
     )
-    d_m = distance_grid(pd.concat([low[key], high[key]]).to_numpy(float))
+    d_m = np.asarray(grids[key]) if grids else distance_grid(pd.concat([low[key], high[key]]).to_numpy(float))
     curve = regression_control_variate(
         high[key].to_numpy(float), low[key].to_numpy(float), d_m, confidence=confidence, seed=seed, strata=strata
     )
@@ -317,7 +331,9 @@ def runout_correction(
     }
     rho = float(np.nan_to_num(np.asarray(mean.correlation).tolist()[0]))
     allocation = route(cost["high_s"], cost["low_s"], rho, len(high), confidence)
-    return {"exceedance": {key: exceedance}, "allocation": allocation}
+    means = {key: {name: float(getattr(mean, name)[0]) for name in ("estimate", "lower", "upper", "weight")}}
+    record = {"exceedance": {key: exceedance}, "allocation": allocation, "means": means}
+    return record | {"n_paired": n, "confidence": confidence}
 
 
 def run_replicate(
@@ -329,11 +345,18 @@ def run_replicate(
     low, high, coarse, plan = tables(population, settings, rng)
     fast_normal(not full)
     try:
-        if full:
-            record = correct(low, high, settings, cost, seed=seed, design=plan)
-        else:
-            record = runout_correction(low, high, settings, cost, seed, plan)
+        correction = correct if full else runout_correction
+        record = correction(low, high, settings, cost, seed=seed, design=plan)
+        plain = record["allocation"]["route"] == "plain MPM"
+        if plain:  # as rgns.fidelity.outputs.write_multifidelity applies it: the pairs alone
+            low = flattened(low)
+            grids = {name: curve["d_m"] for name, curve in record["exceedance"].items()}
+            record = with_plain_estimate(
+                record, correction(low, high, settings, cost, seed=seed, design=plan, grids=grids)
+            )
         chain = converged(low, high, coarse, settings, record, seed=seed, design=plan)
+        if plain:
+            open_unreached_tails(record | {"converged": chain})
         ratio = chain["ratio"]
         order = float(settings["mesh_order"]["runout_m"][1])
         fine, rough, cheap = nested_levels(low, high, coarse)
@@ -364,7 +387,7 @@ def run_replicate(
         }
     allocation = record["allocation"]
     keys = ("route", "reason", "correlation_runout", "speedup_at_equal_error")
-    found["allocation"] = {key: allocation[key] for key in keys}
+    found["allocation"] = {key: allocation[key] for key in keys} | {"applied": "plain MPM" if plain else None}
     return found
 
 
@@ -385,8 +408,11 @@ def checkpoint(result: dict) -> None:
 
 
 def verdict(interval: list[float | None], answer: float) -> str:
-    """ "in", "below" (the interval lies below the answer), "above", or "open" (an end left open)."""
+    """ "in", "below" (the interval lies below the answer), "above", "open in" (open above, its lower end at
+    most the answer: a one-sided interval that holds it), or "open" (else an end left open)."""
     lower, upper = interval
+    if lower is not None and upper is None:
+        return "above" if lower > answer else "open in"
     if lower is None or upper is None:
         return "open"
     return "below" if upper < answer else "above" if lower > answer else "in"
@@ -440,14 +466,15 @@ def decomposition(rows: list[dict], accurate: float, step: float) -> dict[str, A
 
 def tally(outcomes: list[str], intervals: list[list[float | None]], se: float) -> dict[str, Any]:
     """Coverage of one interval over the replicates."""
-    coverage = outcomes.count("in") / max(len(outcomes), 1)
+    coverage = (outcomes.count("in") + outcomes.count("open in")) / max(len(outcomes), 1)
     widths = [(u - lo) / 2.0 for lo, u in intervals if lo is not None and u is not None]
     return {
         "coverage": coverage,
         "within_3se": bool(abs(coverage - 0.95) <= 3 * se),
         "below": outcomes.count("below"),
         "above": outcomes.count("above"),
-        "open": outcomes.count("open"),
+        "open": outcomes.count("open") + outcomes.count("open in"),
+        "open_in": outcomes.count("open in"),
         "half_width": float(np.mean(widths)) if widths else float("nan"),
     }
 

@@ -95,9 +95,11 @@ def correct(
     cost: dict[str, float],
     seed: int = 0,
     design: dict[str, Any] | None = None,
+    grids: dict[str, list[float]] | None = None,
 ) -> dict[str, Any]:
     """Every corrected quantity of one case, with the uncorrected ones beside it; ``design``: the pairs'
-    stratified design (rgns.fidelity.pair_design; None: a simple random subsample)."""
+    stratified design (rgns.fidelity.pair_design; None: a simple random subsample); ``grids``: the distances of
+    each exceedance curve (None: :func:`distance_grid` of the runs)."""
     low, high = paired_rows(low, high)
     n, confidence = len(high), settings["confidence"]
     strata = row_strata(design, low["index"].tolist(), n)
@@ -117,7 +119,7 @@ def correct(
         )
         record["means"][key] = {name: value[0] for name, value in _estimate_record(estimate).items()}
     for key in CURVES:
-        d_m = distance_grid(pd.concat([low[key], high[key]]).to_numpy(float))
+        d_m = np.asarray(grids[key]) if grids else distance_grid(pd.concat([low[key], high[key]]).to_numpy(float))
         estimate = regression_control_variate(
             high[key].to_numpy(float), low[key].to_numpy(float), d_m, confidence=confidence, seed=seed, strata=strata
         )
@@ -267,6 +269,56 @@ def simulator_validation(
     return pair_validation(coarse_rows, simulator_rows.iloc[:n], weights, labels, confidence)
 
 
+CHEAP_COLUMNS = (*METRICS, "front_x_m", "rear_x_m")
+
+
+def flattened(low: pd.DataFrame) -> pd.DataFrame:
+    """The cheap table with every cheap value replaced by one constant per column (its mean): the correction's
+    estimators then reduce to the MPM pairs' own design-weighted means (a constant control variate takes weight 1
+    and corrects by 0; the regression's predicted probability is the same for every realization, so the
+    difference estimator is the pairs' weighted share above each distance), with every realization kept, so
+    the strata's weights N_s / N hold: a plain MPM Monte Carlo over the paired realizations."""
+    flat = low.copy()
+    for column in CHEAP_COLUMNS:
+        flat[column] = float(np.nanmean(low[column].to_numpy(float)))
+    return flat
+
+
+def with_plain_estimate(record: dict[str, Any], plain: dict[str, Any]) -> dict[str, Any]:
+    """``record`` (the correction) with its best estimate replaced by ``plain``'s (:func:`correct` of the
+    :func:`flattened` table, on the same grids): the means, the exceedance curves and distances, the zoning; the
+    cheap route's own curves, the pairs' validation and the allocation stay as the evidence of why."""
+    for key, mean in record["means"].items():
+        mean.update({name: plain["means"][key][name] for name in ("estimate", "lower", "upper", "weight")})
+    for key, curve in record["exceedance"].items():
+        curve.update({name: plain["exceedance"][key][name] for name in ("corrected", "lower", "upper")})
+        for p, distances in curve["distances"].items():
+            distances["corrected"] = plain["exceedance"][key]["distances"][p]["corrected"]
+    for name in ("corrected", "lower", "upper", "zones_corrected"):
+        if "zoning" in plain:
+            record["zoning"][name] = plain["zoning"][name]
+    record["route_applied"] = "plain MPM"
+    return record
+
+
+def open_unreached_tails(record: dict[str, Any]) -> None:
+    """Leave open the upper end of a plain MPM estimate's distance exceeded with P where its n pairs cannot bound
+    it: without a cheap route to borrow the tail from, a distance-free upper bound of the 1 − P quantile needs
+    the chance that none of n runs exceeds it, (1 − P)^n, below (1 − confidence) / 2 (at 95 %: n ≥ 36 for P 0.1,
+    367 for P 0.01); a bootstrap of n values cannot reach past their largest."""
+    n, confidence = record["n_paired"], record["confidence"]
+    chain = record.get("converged", {}).get("distances", {})
+    for key, curve in record["exceedance"].items():
+        for p, distances in curve["distances"].items():
+            if (1.0 - float(p)) ** n <= (1.0 - confidence) / 2.0:
+                continue
+            distances["open_above"] = True
+            if p in chain.get(key, {}):
+                chain[key][p]["upper"] = None
+                chain[key][p]["interval_at_order"][1] = None
+                chain[key][p]["accurate_band"][1] = None
+
+
 def write_multifidelity(
     low: pd.DataFrame,
     high: pd.DataFrame,
@@ -283,8 +335,14 @@ def write_multifidelity(
     pairs at the Monte Carlo's mesh, ``coarse``, the estimates at the converged mesh and the simulator's
     validation against them) and the figure."""
     record = correct(low, high, settings, cost, design=plan)
+    plain = record["allocation"]["route"] == "plain MPM"
+    if plain:  # the cheap route does not pay: the paired MPM runs alone make the estimate
+        grids = {key: curve["d_m"] for key, curve in record["exceedance"].items()}
+        record = with_plain_estimate(record, correct(flattened(low), high, settings, cost, design=plan, grids=grids))
     if coarse is not None and settings.get("mesh_order"):
-        record["converged"] = converged(low, high, coarse, settings, record, design=plan)
+        record["converged"] = converged(flattened(low) if plain else low, high, coarse, settings, record, design=plan)
+    if plain:
+        open_unreached_tails(record)
     record["levels"] = list(ZONE_LEVELS)
     own = simulator if simulator is not None else low
     record["cheap_is_simulator"] = simulator is None

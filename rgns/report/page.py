@@ -194,9 +194,18 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
         if record.get("cheap_is_simulator", True)
         else f", {r['low_mean']:.2f} m by the correction's cheap route ({record['cheap_route']})"
     )
+    plain = record.get("route_applied") == "plain MPM"
     line = (
-        f"{case}: mean runout {own:.2f} m by the Monte Carlo's simulator{cheap}, {r['estimate']:.2f} m "
-        f"[{r['lower']:.2f}, {r['upper']:.2f}] corrected towards the MPM at {record['high_cell_size_m']:g} m cells "
+        f"{case}: the cheap route does not pay, so the best estimate is a plain MPM Monte Carlo over the "
+        f"{record['n_paired']} paired realizations ({record['allocation']['reason']}; raise "
+        "montecarlo.fidelity.paired to narrow it). "
+        if plain
+        else f"{case}: "
+    )
+    line += (
+        f"mean runout {own:.2f} m by the Monte Carlo's simulator{cheap}, {r['estimate']:.2f} m "
+        f"[{r['lower']:.2f}, {r['upper']:.2f}] {'by the MPM alone' if plain else 'corrected towards the MPM'} at "
+        f"{record['high_cell_size_m']:g} m cells "
         f"over {record['n_paired']} paired realizations (cheap-route bias on the pairs {r['bias']:+.2f} m, "
         f"correlation {r['correlation']:.3f})"
     )
@@ -279,6 +288,23 @@ def best_estimate_section(report: Report, case: str, files: dict[str, Path]) -> 
     report.add(f"Hazard: {case} — {title}: the best estimate", *parts)
 
 
+def source(record: dict[str, Any]) -> str:
+    """Where a case's best estimate at the accurate mesh comes from, in words: the corrected cheap route, or the
+    paired MPM runs alone where the allocation found that the cheap route does not pay."""
+    high = record["high_cell_size_m"]
+    if record.get("route_applied") == "plain MPM":
+        return (
+            f"the MPM at {high:g} m cells alone over its {record['n_paired']} paired realizations (a plain MPM Monte "
+            f"Carlo: the cheap route does not pay, see the allocation; its values on all {record['n_low']} "
+            "realizations stand beside it for comparison; an empty upper end: more realizations than these are "
+            "needed to bound it)"
+        )
+    return (
+        f"the cheap route on all {record['n_low']} realizations corrected by the {record['n_paired']} pairs run by "
+        f"the MPM at {high:g} m cells"
+    )
+
+
 def corrected_table(record: dict[str, Any]) -> list[str]:
     """The best estimate where no mesh extrapolation ran: the cheap route corrected to the accurate MPM, the
     means with their intervals and the distances exceeded with each probability with the band of the
@@ -307,15 +333,14 @@ def corrected_table(record: dict[str, Any]) -> list[str]:
             step: difference(d["corrected"], d["uncorrected"]),
             "= best estimate": d["corrected"],
             "[lower": distance_at(curve["d_m"], curve["lower"], float(p)),
-            "upper]": distance_at(curve["d_m"], curve["upper"], float(p)),
+            "upper]": None if d.get("open_above") else distance_at(curve["d_m"], curve["upper"], float(p)),
         }
         for key, curve in record["exceedance"].items()
         for p, d in curve["distances"].items()
     ]
     return [
         paragraph(
-            f"The best estimate (m, m²): the cheap route on all {record['n_low']} realizations corrected by the "
-            f"{record['n_paired']} pairs run by the MPM at {high:g} m cells, with its {record['confidence']:.0%} "
+            f"The best estimate (m, m²): {source(record)}, with its {record['confidence']:.0%} "
             f"interval (a distance's: where the band of the corrected exceedance curve crosses its probability). "
             f"It stays at the {high:g} m "
             "mesh: no mesh extrapolation ran (montecarlo.fidelity.mesh_order)."
@@ -371,9 +396,8 @@ def mesh_chain(record: dict[str, Any]) -> list[str]:
     ]
     return [
         paragraph(
-            f"The best estimate, step by step (m, m²): the cheap route on all {record['n_low']} realizations, "
-            f"its correction by the {record['n_paired']} pairs run by the MPM at {high:g} m cells, and the "
-            f"step from that mesh to the converged one: Richardson extrapolation of the pairs' difference "
+            f"The best estimate, step by step (m, m²): {source(record)}, and the step from that mesh to the "
+            "converged one: Richardson extrapolation of the pairs' difference "
             f"between {c['coarse_cell_size_m']:g} m and {high:g} m cells at the order measured for each "
             "quantity (benchmarks/results/mesh_levels.md; none where no asymptotic range was found, and "
             "that quantity stays at the accurate mesh)."

@@ -150,3 +150,26 @@ def test_corrected_zones_rise_to_one_maximum_and_fall():
         ranks = np.array([ZONE_LEVELS.index(zone["level"]) for zone in zoning["zones_corrected"]])
         top = int(np.argmin(ranks))  # 0 = extremely high
         assert np.all(np.diff(ranks[: top + 1]) < 0) and np.all(np.diff(ranks[top:]) > 0), (seed, ranks)
+
+
+def test_an_uncorrelated_cheap_route_is_replaced_by_the_pairs_alone(tmp_path):
+    """The allocation's plain MPM route is applied: with a cheap route unrelated to the MPM, the best estimate is
+    the pairs' own mean and share above each distance (a plain MPM Monte Carlo), the tail 40 pairs cannot bound
+    is left open above, and the cheap route's own curve stays beside it."""
+    rng = np.random.default_rng(7)
+    accurate = rng.gamma(4.0, 2.0, 40)
+    cheap = rng.permutation(rng.gamma(4.0, 2.0, 400))  # unrelated to the accurate runs
+    settings = SETTINGS | {"exceedance_probabilities": [0.5, 0.01]}
+    outputs = {"json": str(tmp_path / "m.json"), "figure": str(tmp_path / "m.png")}
+    record = write_multifidelity(table(cheap), table(accurate), settings, {"low_s": 0.01, "high_s": 20.0}, outputs, "c")
+    assert record["allocation"]["route"] == "plain MPM" and record["route_applied"] == "plain MPM"
+    runout = record["means"]["runout_m"]
+    assert runout["estimate"] == pytest.approx(accurate.mean(), abs=1e-9)
+    assert runout["low_mean"] == pytest.approx(cheap.mean())  # the cheap route's value stays as evidence
+    curve = record["exceedance"]["runout_m"]
+    d = np.array(curve["d_m"])
+    plain = (accurate[:, None] > d[None, :]).mean(0)
+    assert np.allclose(curve["corrected"], plain)
+    assert np.allclose(curve["uncorrected"], (cheap[:, None] > d[None, :]).mean(0))
+    assert curve["distances"]["0.01"].get("open_above") and not curve["distances"]["0.5"].get("open_above")
+    assert json.loads((tmp_path / "m.json").read_text())["route_applied"] == "plain MPM"
