@@ -5,7 +5,7 @@
 
 Both routes simulate the same default-config case-1 realizations with the default engine settings,
 one CPU thread, alternating route by route: ``memory`` is what rgns.montecarlo.runs does (each case
-built by ``case_from_scene``), ``disk`` is what it did before (each case written as a CB-Geo
+built by ``rgns.scene.build.case_from_scene``), ``disk`` is what it did before (each case written as a CB-Geo
 directory into a scratch folder and read back). Prints the time per realization of each (median
 of the repeats), the ratio, the time of the case set-up alone, and whether the trajectories are
 identical (they must be: the files hold every digit).
@@ -24,8 +24,9 @@ import torch
 
 from rgns.config import load_config
 from rgns.engines.cbgeo.case import read_case
-from rgns.engines.cbgeo.writer import case_from_scene, save_case
+from rgns.engines.cbgeo.writer import save_case
 from rgns.engines.mpm.solver import EngineSettings, run_batch
+from rgns.scene.build import case_from_scene
 from rgns.scene.realizations import CaseInputs, draw_realization
 
 REPO = Path(__file__).resolve().parent.parent

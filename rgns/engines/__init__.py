@@ -2,8 +2,8 @@
 
 :mod:`rgns.engines.mpm` is the embedded PyTorch MPM, which takes cases in memory and imports no file
 format; :mod:`rgns.engines.cbgeo` writes and reads CB-Geo's case directories and runs the ``mpm``
-binary on them (with the geostatic start, :mod:`rgns.engines.cbgeo.geostatic`, and the CB-Geo
-comparison cases, :mod:`rgns.engines.cbgeo.reference_cases`); :mod:`rgns.engines.chunk` runs a chunk
+binary on them (with the CB-Geo comparison cases, :mod:`rgns.engines.cbgeo.reference_cases`); every
+engine runs the case :mod:`rgns.scene.build` makes; :mod:`rgns.engines.chunk` runs a chunk
 of cases through the configured one (``mpm.engine``) into trajectory files, and
 :mod:`rgns.engines.batch` a batch of realizations in memory through the embedded one.
 :mod:`rgns.engines.metrics` measures a run: runout R, sliding volume V and influence distance I;

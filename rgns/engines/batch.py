@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from rgns.engines.cbgeo.writer import case_from_scene
 from rgns.engines.mpm.solver import EngineSettings, RunResult, run_batch
+from rgns.scene.build import case_from_scene
 from rgns.scene.realizations import Realization
 
 

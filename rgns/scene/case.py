@@ -1,7 +1,7 @@
 """The realization every engine runs: its mesh, material points, stresses, materials and
 constraints, in memory (:class:`Case`).
 
-Built from a drawn scene by :func:`rgns.engines.cbgeo.writer.case_from_scene`; CB-Geo's case directory is
+Built from a drawn scene by :func:`rgns.scene.build.case_from_scene`; CB-Geo's case directory is
 one serialization of it (:func:`rgns.engines.cbgeo.writer.save_case` writes it, :func:`rgns.engines.cbgeo.case.read_case`
 reads it back to the same numbers). Its fields follow CB-Geo's input model (``mpm.json``'s analysis,
 materials and constraints), which both engines read; the embedded engine takes it without importing

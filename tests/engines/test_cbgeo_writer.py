@@ -12,18 +12,9 @@ from conftest import TINY_CONFIG
 
 from rgns.config import ConfigError, load_config, validate_config
 from rgns.engines.cbgeo.case import read_case, read_mesh
-from rgns.engines.cbgeo.writer import (
-    FLOOR,
-    GENERATOR_PSET,
-    LEFT_WALL,
-    PAD_CELLS,
-    RIGHT_WALL,
-    bin_friction,
-    case_from_scene,
-    save_case,
-    write_case,
-)
+from rgns.engines.cbgeo.writer import save_case, write_case
 from rgns.engines.mpm.solver import EngineSettings, run_batch
+from rgns.scene.build import FLOOR, GENERATOR_PSET, LEFT_WALL, PAD_CELLS, RIGHT_WALL, bin_friction, case_from_scene
 from rgns.scene.fields import FieldGrid, friction_field
 from rgns.scene.geometry import build_scene, signed_area
 from rgns.scene.realizations import CaseInputs, draw_realization

@@ -258,19 +258,19 @@ def test_keeping_only_the_ends_returns_exactly_those_frames_of_a_full_run(tmp_pa
 def unpadded_runs(tmp_path_factory):
     """A column collapse and a failing slope on meshes that end at the walls and the floor (as CB-Geo
     users write them), and the same slope on the padded mesh rgns writes: B-splines, default settings."""
-    import rgns.engines.cbgeo.writer as writer
+    import rgns.scene.build as build
 
     directory = tmp_path_factory.mktemp("unpadded")
     torch.set_num_threads(1)
-    padding = writer.PAD_CELLS
+    padding = build.PAD_CELLS
     try:
-        writer.PAD_CELLS = 0
+        build.PAD_CELLS = 0
         column = polygon_case(directory / "column", [[0, 0], [4, 0], [4, 8], [0, 8]], 24.0, 10.0, cell_size_m=0.5)
         slope = polygon_case(
             directory / "slope", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0, index=1
         )
     finally:
-        writer.PAD_CELLS = padding
+        build.PAD_CELLS = padding
     padded = polygon_case(
         directory / "padded", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0, index=2
     )

@@ -1,6 +1,6 @@
 """A CB-Geo case directory read into the realization every engine runs (:class:`rgns.scene.case.Case`).
 
-A realization's case is built in memory (:func:`rgns.engines.cbgeo.writer.case_from_scene`); its case
+A realization's case is built in memory (:func:`rgns.scene.build.case_from_scene`); its case
 directory is one serialization of it (:func:`rgns.engines.cbgeo.writer.save_case`), which
 :func:`read_case` reads back to the same numbers. :func:`read_case` also reads plain CB-Geo case
 directories in the subset the embedded engine supports: an ED2Q4 mesh, one file generator,

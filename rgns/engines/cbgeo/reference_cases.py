@@ -7,7 +7,8 @@ import dataclasses
 from pathlib import Path
 
 from rgns.config import DEFAULT_CONFIG_PATH, load_config
-from rgns.engines.cbgeo.writer import case_from_scene, save_case
+from rgns.engines.cbgeo.writer import save_case
+from rgns.scene.build import case_from_scene
 from rgns.scene.case import Case
 from rgns.scene.fields import FieldGrid, friction_field
 from rgns.scene.geometry import build_scene

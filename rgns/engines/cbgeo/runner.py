@@ -13,9 +13,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rgns.engines.cbgeo import writer as names
-from rgns.engines.cbgeo.case import read_case, to_trajectory
+from rgns.engines.cbgeo.case import INPUT_JSON, read_case, to_trajectory
 from rgns.engines.cbgeo.output import OutputError, read_frames
+from rgns.scene.build import RESULTS_PATH, UUID
 from rgns.scene.case import Case
 from rgns.trajectories import Trajectory
 
@@ -66,7 +66,7 @@ def run_cbgeo(
     env = dict(os.environ)
     if options["threads"] > 1:
         env["OMP_WAIT_POLICY"] = "passive"
-    command = [binary, "-f", f"{scratch_dir.resolve()}/", "-i", names.INPUT_JSON, "-p", str(options["threads"])]
+    command = [binary, "-f", f"{scratch_dir.resolve()}/", "-i", INPUT_JSON, "-p", str(options["threads"])]
     log_path.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     with open(log_path, "w") as log:
@@ -85,7 +85,7 @@ def run_cbgeo(
         reason = _failure_reason(log_path)
         error = MPMDiverged if reason.startswith("a particle left the mesh") else MPMRunError
         raise error(f"{label}: CB-Geo mpm exited with status {status}: {reason}; log: {log_path}")
-    return case, scratch_dir / names.RESULTS_PATH / names.UUID, elapsed
+    return case, scratch_dir / RESULTS_PATH / UUID, elapsed
 
 
 def trajectory_from_cbgeo(case: Case, results_dir: Path, label: str, provenance: dict[str, Any]) -> Trajectory:
