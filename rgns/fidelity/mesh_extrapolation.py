@@ -151,7 +151,7 @@ def distance_intervals(
     is model-based, as Richardson's is, and borrows the N cheap runs' tail: the pairs' 1 − P quantiles it
     replaces are, past the last pair's plotting position, the pairs' maximum (that step came out 0.43 m short at
     P 0.01 in benchmarks/pair_coverage.py), and the pair-corrected curves' crossings jump by 1 / n in a 1 % tail
-    (a step of 0.42 m against 2.4 m for P 0.1 on the default run's pairs). One bootstrap resamples the pairs
+    (a step of 0.42 m against 2.37 m for P 0.1 on the default run's pairs). One bootstrap resamples the pairs
     (``high``, ``coarse`` and the first n of ``low``, together) and the unpaired cheap runs (held as they are,
     binned, beyond RESAMPLED_UNPAIRED), within the design ``strata`` (a label per row of ``low``; None: one
     stratum), refitting both regressions in every resample, at the expanded percentile level for n pairs."""

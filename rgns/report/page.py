@@ -252,9 +252,9 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
             if entry.get("mesh_step") is not None and pairs * float(p) < 1.0
         ]
         line += (
-            f". The mesh step of the {', '.join(thin)} rests on the extreme of the {pairs} pairs (fewer than one "
-            "expected beyond that probability): its estimate can run low, and only its interval over the order's "
-            "range is measured to hold it (benchmarks/results/pair_coverage.md); read the upper end"
+            f". The mesh step of the {', '.join(thin)} rests on the cheap route's regressions beyond the {pairs} "
+            "pairs (fewer than one expected beyond that probability): a model's extrapolation, its coverage "
+            "measured on a synthetic population only (benchmarks/results/pair_coverage.md)"
             if thin
             else ""
         )

@@ -110,14 +110,16 @@ def test_the_headline_says_where_the_runs_leave_a_distances_interval_open():
     assert "do not bound" not in line
 
 
-def test_the_headline_warns_where_a_distances_mesh_step_rests_on_the_pairs_extreme():
+def test_the_headline_warns_where_a_distances_mesh_step_rests_on_the_regressions_beyond_the_pairs():
     """With 16 pairs, the step at P 0.01 (0.16 pairs expected beyond it) is named; at P 0.1 (1.6) it is not."""
     stepped = {"estimate": 10.0, "lower": 9.0, "upper": 12.0, "mesh_step": 1.0}
     line, _ = _runout_line("case1", runout_record({"0.1": stepped, "0.01": stepped}))
-    assert "The mesh step of the runout exceeded with P 0.01 rests on the extreme of the 16 pairs" in line
+    assert (
+        "The mesh step of the runout exceeded with P 0.01 rests on the cheap route's regressions beyond the 16" in line
+    )
     assert "P 0.1 rests" not in line and "P 0.1," not in line
     line, _ = _runout_line("case1", runout_record({"0.01": stepped | {"mesh_step": None}}))
-    assert "rests on the extreme" not in line
+    assert "regressions beyond" not in line
 
 
 def synthetic_record(converged: bool, pair_validation: bool) -> dict:
