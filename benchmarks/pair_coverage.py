@@ -31,7 +31,7 @@ The quantile form (the 0.5 m quantile itself plus the step) is reported beside i
 
 A replicate draws N realizations with replacement from the population (a drawn row is a new realization 0 …
 N − 1), draws the pairs as rule paired_plan does, and estimates exactly as rule multifidelity does
-(workflow/scripts/multifidelity.py → rgns.fidelity.outputs.write_multifidelity: ``correct`` then
+(workflow/scripts/multifidelity.py → rgns.fidelity.outputs.write_multifidelity → ``best_estimate``: ``correct`` then
 ``mesh_extrapolation.converged``, the plan passed as the design; the bootstrap seed is the replicate number). It
 records per quantity the estimate, the interval at the order's point value (sampling alone: the converged
 mean's from ``rgns.fidelity.multilevel.extrapolated`` with the order's interval collapsed to its value, on the
@@ -67,18 +67,10 @@ from scipy import special, stats
 
 from rgns.config import load_config
 from rgns.fidelity import multifidelity
-from rgns.fidelity.mesh_extrapolation import converged, nested_levels
+from rgns.fidelity.mesh_extrapolation import nested_levels
 from rgns.fidelity.multifidelity import control_variate, distance_at, rearranged, regression_control_variate, route
 from rgns.fidelity.multilevel import extrapolated, richardson_step
-from rgns.fidelity.outputs import (
-    DISTANCE_STEP_M,
-    correct,
-    distance_grid,
-    flattened,
-    open_unreached_tails,
-    paired_rows,
-    with_plain_estimate,
-)
+from rgns.fidelity.outputs import DISTANCE_STEP_M, best_estimate, correct, distance_grid, flattened, paired_rows
 from rgns.fidelity.pair_design import design_pairs, row_strata
 from rgns.montecarlo.runs import CaseInputs, run_realizations
 from rgns.surrogates.endstate.model import load_model
@@ -345,18 +337,11 @@ def run_replicate(
     low, high, coarse, plan = tables(population, settings, rng)
     fast_normal(not full)
     try:
-        correction = correct if full else runout_correction
-        record = correction(low, high, settings, cost, seed=seed, design=plan)
-        plain = record["allocation"]["route"] == "plain MPM"
-        if plain:  # as rgns.fidelity.outputs.write_multifidelity applies it: the pairs alone
+        record = best_estimate(low, high, coarse, settings, cost, plan, seed, correct if full else runout_correction)
+        chain = record["converged"]
+        plain = record.get("route_applied") == "plain MPM"
+        if plain:  # the levels converged read: the paired MPM runs alone
             low = flattened(low)
-            grids = {name: curve["d_m"] for name, curve in record["exceedance"].items()}
-            record = with_plain_estimate(
-                record, correction(low, high, settings, cost, seed=seed, design=plan, grids=grids)
-            )
-        chain = converged(low, high, coarse, settings, record, seed=seed, design=plan)
-        if plain:
-            open_unreached_tails(record | {"converged": chain})
         ratio = chain["ratio"]
         order = float(settings["mesh_order"]["runout_m"][1])
         fine, rough, cheap = nested_levels(low, high, coarse)

@@ -36,6 +36,7 @@ from rgns.fidelity.multifidelity import (
     corrected_affected_probability,
     design_weights,
     distance_at,
+    mean_predicted,
     predicted_exceedance,
     rearranged,
     regression_point_estimate,
@@ -89,18 +90,13 @@ def modelled_crossing(
     1 / n jumps that made the step of a 1 % tail swing by metres; and it moves continuously with the fit: two
     meshes whose runs differ by δ cross δ apart."""
     shape = (*high_p.shape[:-1], targets.size)
-    n = high_p.shape[-1]
+    rest = None if low_u is None else low_u[..., 0]
+    counts = None if low_u_counts is None else low_u_counts[:, 0]
 
     def curve(at: np.ndarray) -> np.ndarray:
         thresholds = at[..., None, :]  # [..., 1, P]
         g_pairs = predicted_exceedance(high_p, low_p, low_p, thresholds, weights)  # [..., n, P]
-        if low_u is None:
-            return g_pairs.mean(-2)
-        g_rest = predicted_exceedance(high_p, low_p, low_u[..., 0], thresholds, weights)  # [..., M, P]
-        if low_u_counts is None:
-            return (g_pairs.sum(-2) + g_rest.sum(-2)) / (n + g_rest.shape[-2])
-        counts = low_u_counts[:, 0]
-        return (g_pairs.sum(-2) + (g_rest * counts[:, None]).sum(-2)) / (n + float(counts.sum()))
+        return mean_predicted(g_pairs, high_p, low_p, rest, thresholds, weights, counts)
 
     lower, upper = np.full(shape, float(bracket[0])), np.full(shape, float(bracket[1]))
     for _ in range(BISECTIONS):
@@ -161,7 +157,6 @@ def distance_intervals(
     resample_rest = big_n - n <= RESAMPLED_UNPAIRED
     fixed_rest, fixed_counts = (None, None) if resample_rest else binned(low[n:, None], BINS)
     factor = ratio ** np.asarray(orders, dtype=float)[:, None] - 1.0  # [orders, 1]
-
     bracket = (float(d_m[0]), float(d_m[-1]))
 
     def value(pick: np.ndarray, low_u: np.ndarray | None, counts: np.ndarray | None) -> np.ndarray:

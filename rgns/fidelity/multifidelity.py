@@ -296,6 +296,28 @@ def binned(values: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
     return centres, counts
 
 
+def mean_predicted(
+    g_pairs: np.ndarray,
+    high_p: np.ndarray,
+    low_p: np.ndarray,
+    low_u: np.ndarray | None,
+    thresholds: np.ndarray,
+    weights: np.ndarray,
+    low_u_counts: np.ndarray | None = None,
+) -> np.ndarray:
+    """The mean over all N realizations of the predicted exceedance P(h > t | l) (:func:`predicted_exceedance`
+    fitted on the pairs ``high_p``, ``low_p`` [..., n] with ``weights``), given its values at the pairs
+    ``g_pairs`` [..., n, T]: the unpaired cheap values ``low_u`` [..., M] (None: none), or binned [M] with
+    ``low_u_counts`` [M] → [..., T]."""
+    if low_u is None:
+        return g_pairs.mean(-2)
+    g_rest = predicted_exceedance(high_p, low_p, low_u, thresholds, weights)  # [..., M, T]
+    if low_u_counts is None:
+        return np.concatenate([g_pairs, g_rest], axis=-2).mean(-2)
+    g_sum = g_pairs.sum(-2) + (g_rest * low_u_counts[:, None]).sum(-2)
+    return g_sum / (g_pairs.shape[-2] + float(low_u_counts.sum()))
+
+
 def regression_point_estimate(
     high_p: np.ndarray,
     low_p: np.ndarray,
@@ -318,15 +340,8 @@ def regression_point_estimate(
     for k in range(columns):
         hi, lo = high_p[..., k], low_p[..., k]
         g_pairs = predicted_exceedance(hi, lo, lo, thresholds, w)  # [..., n, T]
-        if low_u is None:
-            g_mean = g_pairs.mean(-2)
-        else:
-            g_rest = predicted_exceedance(hi, lo, low_u[..., k], thresholds, w)  # [..., M, T]
-            if low_u_counts is None:
-                g_mean = np.concatenate([g_pairs, g_rest], axis=-2).mean(-2)
-            else:
-                g_sum = g_pairs.sum(-2) + (g_rest * low_u_counts[:, k, None]).sum(-2)
-                g_mean = g_sum / (n + float(low_u_counts[:, k].sum()))
+        counts = None if low_u_counts is None else low_u_counts[:, k]
+        g_mean = mean_predicted(g_pairs, hi, lo, None if low_u is None else low_u[..., k], thresholds, w, counts)
         hit = _exceeds(hi, thresholds, inclusive[k])  # [..., n, T]
         total = total + signs[k] * ((w[..., None] * (hit - g_pairs)).sum(-2) + g_mean)
     return total

@@ -14,6 +14,7 @@ come from the Snakemake benchmark files of the chunks.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -294,8 +295,8 @@ def with_plain_estimate(record: dict[str, Any], plain: dict[str, Any]) -> dict[s
         curve.update({name: plain["exceedance"][key][name] for name in ("corrected", "lower", "upper")})
         for p, distances in curve["distances"].items():
             distances["corrected"] = plain["exceedance"][key]["distances"][p]["corrected"]
-    for name in ("corrected", "lower", "upper", "zones_corrected"):
-        if "zoning" in plain:
+    if "zoning" in plain:
+        for name in ("corrected", "lower", "upper", "zones_corrected"):
             record["zoning"][name] = plain["zoning"][name]
     record["route_applied"] = "plain MPM"
     return record
@@ -319,6 +320,36 @@ def open_unreached_tails(record: dict[str, Any]) -> None:
                 chain[key][p]["accurate_band"][1] = None
 
 
+def best_estimate(
+    low: pd.DataFrame,
+    high: pd.DataFrame,
+    coarse: pd.DataFrame | None,
+    settings: dict[str, Any],
+    cost: dict[str, float],
+    design: dict[str, Any] | None = None,
+    seed: int = 0,
+    correction: Callable[..., dict[str, Any]] = correct,
+) -> dict[str, Any]:
+    """The case's correction (``correction``: :func:`correct`, or a stand-in with its signature that records
+    part of it) and, with the ``coarse`` pairs and ``mesh_order``, its chain to the converged mesh. Where the
+    allocation finds that the cheap route does not pay, the route it names is applied: the estimate from the
+    paired MPM runs alone (:func:`flattened`, :func:`with_plain_estimate`) with the tails they cannot bound
+    left open (:func:`open_unreached_tails`)."""
+    record = correction(low, high, settings, cost, seed=seed, design=design)
+    plain = record["allocation"]["route"] == "plain MPM"
+    if plain:
+        low = flattened(low)
+        grids = {key: curve["d_m"] for key, curve in record["exceedance"].items()}
+        record = with_plain_estimate(
+            record, correction(low, high, settings, cost, seed=seed, design=design, grids=grids)
+        )
+    if coarse is not None and settings.get("mesh_order"):
+        record["converged"] = converged(low, high, coarse, settings, record, seed=seed, design=design)
+    if plain:
+        open_unreached_tails(record)
+    return record
+
+
 def write_multifidelity(
     low: pd.DataFrame,
     high: pd.DataFrame,
@@ -334,15 +365,7 @@ def write_multifidelity(
     Carlo's own means and curves: its ``simulator`` table where that is not the cheap route, and with the
     pairs at the Monte Carlo's mesh, ``coarse``, the estimates at the converged mesh and the simulator's
     validation against them) and the figure."""
-    record = correct(low, high, settings, cost, design=plan)
-    plain = record["allocation"]["route"] == "plain MPM"
-    if plain:  # the cheap route does not pay: the paired MPM runs alone make the estimate
-        grids = {key: curve["d_m"] for key, curve in record["exceedance"].items()}
-        record = with_plain_estimate(record, correct(flattened(low), high, settings, cost, design=plan, grids=grids))
-    if coarse is not None and settings.get("mesh_order"):
-        record["converged"] = converged(flattened(low) if plain else low, high, coarse, settings, record, design=plan)
-    if plain:
-        open_unreached_tails(record)
+    record = best_estimate(low, high, coarse, settings, cost, plan)
     record["levels"] = list(ZONE_LEVELS)
     own = simulator if simulator is not None else low
     record["cheap_is_simulator"] = simulator is None
