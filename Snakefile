@@ -10,6 +10,7 @@ sys.path.insert(0, workflow.basedir)  # the rgns package of this checkout, insta
 
 from rgns.config import validate_config
 from rgns.integrity import dry_run, locked, sweep
+from rgns.montecarlo.routes import chunk_share
 
 
 # A --configfile replaces the default config instead of being merged into it, so a smaller
@@ -40,16 +41,14 @@ include: "rules/hazard.smk"
 if workflow.is_main_process and not dry_run(sys.argv) and not locked():
     sweep(folders={f"results/mpm/{name}/chunk_{k}": [f"{i}.h5" for i in chunk_members(name, k)]
                    for name in RUN_SETS for k in chunk_ids(name)},
-          chunks={f"results/mc/{case}/{kind}chunk_{k}.csv": mc_chunk_indices(SimpleNamespace(chunk=k))
-                  for case in MC_CASES for kind in ("", "control/") for k in mc_chunk_ids(case)})
+          chunks={path: chunk_share(route.listed(config), k, route.chunk_size)
+                  for case in MC_CASES for route in ROUTES.values() if route.listed(config) is not None
+                  for k, path in enumerate(route_chunks(case, route.name))})
 
 
 # Light table and figure steps run where snakemake runs, not as cluster jobs of their own.
 localrules:
     mc_collect,
-    mc_paired_collect,
-    mc_coarse_collect,
-    mc_control_collect,
     paired_plan,
     exceedance,
     zoning,

@@ -3,7 +3,7 @@
     python benchmarks/chain_coverage.py                 # writes benchmarks/results/chain_coverage.{md,json}
 
 Population: the default config's case-1 realizations that benchmarks/mesh_levels.py ran at 1, 0.5 and
-0.25 m, with the cheap route (the tuned end-state surrogate, run as rule mc_control_chunk runs it) evaluated
+0.25 m, with the cheap route (the tuned end-state surrogate, run as rule mc_chunk runs route control) evaluated
 here on the same realizations. In the resampling world the population is the empirical distribution of
 those realizations, so every answer is known:
 

@@ -65,7 +65,7 @@ def other_runs() -> bool:
 
 
 def run_settings(config: dict) -> RunSettings:
-    """The Monte Carlo's run settings with the embedded MPM, as rule mc_paired_chunk runs it."""
+    """The Monte Carlo's run settings with the embedded MPM, as rule mc_chunk runs route paired."""
     section = config["montecarlo"]
     params = {
         "montecarlo": {

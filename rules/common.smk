@@ -5,6 +5,7 @@ from dataclasses import asdict
 from pathlib import Path
 from types import SimpleNamespace
 
+from rgns.montecarlo.routes import PAIRED, monte_carlo_routes
 from rgns.scene.fields import FIELD_KEYS
 from rgns.scene.geometry import DRAW_KEYS
 from rgns.scene.realizations import CaseInputs, accurate_case_inputs, mean_vertices
@@ -138,24 +139,6 @@ wildcard_constraints:
     case="|".join(TEST_CASES) or "no-test-case",
 
 
-def mc_chunk_ids(case):
-    """Monte Carlo chunk ids of a case ('000', '001', ...)."""
-    section = config["montecarlo"]
-    return [f"{k:03d}" for k in range(-(-section["realizations"] // section["chunk_size"]))]
-
-
-def mc_chunk_indices(wildcards):
-    """Realization indices of one Monte Carlo chunk."""
-    section = config["montecarlo"]
-    first = int(wildcards.chunk) * section["chunk_size"]
-    return list(range(first, min(first + section["chunk_size"], section["realizations"])))
-
-
-def mc_case_params(wildcards):
-    """What drawing a realization of a case depends on: its set's group, family, domain, mesh, field."""
-    return asdict(CaseInputs.from_config(config, wildcards.case))
-
-
 def mc_run_params(wildcards):
     """The simulator settings of the Monte Carlo runs (MPM settings too: GNS rollouts start from MPM frames)."""
     section = config["montecarlo"]
@@ -165,26 +148,6 @@ def mc_run_params(wildcards):
         "mpm": config["mpm"],
         "metrics": config["metrics"],
     }
-
-
-def mc_paired_chunk_ids(case):
-    """Chunk ids of a case's paired realizations (montecarlo.fidelity.paired, in chunks of fidelity.chunk_size)."""
-    fidelity = config["montecarlo"]["fidelity"]
-    return [f"{k:03d}" for k in range(-(-fidelity["paired"] // fidelity["chunk_size"]))]
-
-
-def mc_paired_chunk_indices(wildcards):
-    """Where the paired chunk's realizations come from: its place in the list rule paired_plan chose."""
-    return {"chunk": int(wildcards.chunk), "chunk_size": config["montecarlo"]["fidelity"]["chunk_size"]}
-
-
-def mc_paired_chunks(wildcards):
-    """Every paired chunk of a case."""
-    return [f"results/mc/{wildcards.case}/paired/chunk_{k}.csv" for k in mc_paired_chunk_ids(wildcards.case)]
-
-
-def mc_paired_plan(wildcards):
-    return [f"results/mc/{wildcards.case}/paired_plan.json"]
 
 
 def paired_plan_cheap(wildcards):
@@ -201,48 +164,77 @@ def paired_plan_params(wildcards):
     }
 
 
-def mc_paired_case_params(wildcards):
-    """A case drawn at the accurate mesh: the same geometry, and the field on the cheap run's grid."""
-    return asdict(accurate_case_inputs(config, wildcards.case, config["montecarlo"]["fidelity"]["high_cell_size_m"]))
+# the ways a case's realizations run (rgns/montecarlo/routes.py): the Monte Carlo and its mean field by
+# montecarlo.simulator, the pairs by the MPM, the control variate by the tuned end-state surrogate
+ROUTES = monte_carlo_routes(config)
+EXTRAPOLATE = "paired_coarse" in ROUTES
+CONTROL = "control" in ROUTES
 
 
-# with montecarlo.fidelity.mesh_order the pairs run once more at the Monte Carlo's mesh, to extrapolate
-EXTRAPOLATE = bool(config["montecarlo"]["fidelity"]["paired"] and config["montecarlo"]["fidelity"]["mesh_order"])
+def route_chunks(case, name):
+    """Every chunk table of one route of a case."""
+    return [f"results/mc/{case}/{name}/chunk_{k}.csv" for k in ROUTES[name].chunk_ids(config)]
 
 
-def mc_coarse_case_params(wildcards):
-    """A case drawn at the Monte Carlo's own mesh as the accurate one is drawn (the field on the same grid)."""
-    return asdict(accurate_case_inputs(config, wildcards.case, config["mesh"]["cell_size_m"]))
+def route_chunk_files(wildcards):
+    """Every chunk table of the route a collecting job stands for."""
+    return route_chunks(wildcards.case, wildcards.route)
 
 
-def mc_coarse_chunks(wildcards):
-    """The paired chunks' realizations, by the MPM at the Monte Carlo's mesh."""
-    return [path.replace("/paired/", "/paired_coarse/") for path in mc_paired_chunks(wildcards)]
+def route_model(wildcards):
+    """The trained model the route's simulator loads (none for the MPM)."""
+    model = ROUTES[wildcards.route].model
+    return [model] if model else []
+
+
+def route_gate(wildcards):
+    """The validation gate's verdicts, when the route is the learned simulator's and
+    validation.acceptance.on_failure is stop (a case it fails stops); otherwise the gate decides nothing."""
+    return report_gate(wildcards) if ROUTES[wildcards.route].gated else []
+
+
+def route_plan(wildcards):
+    """Rule paired_plan's choice, for the routes that run the pairs."""
+    return [f"results/mc/{wildcards.case}/paired_plan.json"] if ROUTES[wildcards.route].realizations == PAIRED else []
+
+
+def route_case_params(wildcards):
+    """What drawing one of the route's realizations of a case depends on: group, family, domain, mesh, field."""
+    return asdict(ROUTES[wildcards.route].case_inputs(config, wildcards.case))
+
+
+def route_run_params(wildcards):
+    """The Monte Carlo settings with the route's simulator."""
+    params = mc_run_params(wildcards)
+    params["montecarlo"]["simulator"] = ROUTES[wildcards.route].simulator
+    return params
+
+
+def route_listing(wildcards):
+    """Which realizations the route runs, in chunk order (None: rule paired_plan's list), and its chunk size."""
+    route = ROUTES[wildcards.route]
+    return {"listed": route.listed(config), "chunk_size": route.chunk_size}
+
+
+def route_gpu(wildcards):
+    """A GPU for a learned simulator's route when montecarlo.device asks for one."""
+    return gpus(config["montecarlo"]["device"]) if ROUTES[wildcards.route].model else 0
+
+
+def route_mem_mb(wildcards):
+    """Memory of one chunk job: more at a mesh finer than the Monte Carlo's."""
+    return 4000 if ROUTES[wildcards.route].cell_size_m < config["mesh"]["cell_size_m"] else 2000
 
 
 def mc_coarse_table(wildcards):
+    """The pairs at the Monte Carlo's mesh, when the estimate is carried to the converged mesh."""
     return [f"results/mc/{wildcards.case}/paired_coarse.csv"] if EXTRAPOLATE else []
 
 
-# the correction's cheap model: the Monte Carlo's own runs, or the tuned end-state surrogate's (mc_control_chunk)
-CONTROL = config["montecarlo"]["fidelity"]["cheap"] == "tuned"
+# the correction's cheap model: the Monte Carlo's own runs, or the tuned end-state surrogate's (route control)
 CHEAP_TABLE = "results/mc/{case}/control.csv" if CONTROL else "results/mc/{case}/realizations.csv"
 CHEAP_ROUTE = ("the end-state surrogate tuned to the accurate MPM" if CONTROL
                else f"the Monte Carlo's simulator ({config['montecarlo']['simulator']})")
-
-
-def mc_control_run_params(wildcards):
-    """The Monte Carlo settings with the tuned end-state surrogate as simulator."""
-    params = mc_run_params(wildcards)
-    params["montecarlo"]["simulator"] = "endstate"
-    return params
-
-
-def mc_paired_run_params(wildcards):
-    """The Monte Carlo settings with the embedded MPM as simulator."""
-    params = mc_run_params(wildcards)
-    params["montecarlo"]["simulator"] = "mpm"
-    return params
 
 
 def multifidelity_params(wildcards):
@@ -252,8 +244,8 @@ def multifidelity_params(wildcards):
     case = wildcards.case
     return zoning_params(wildcards) | config["montecarlo"]["fidelity"] | {
         "exceedance_probabilities": hazard["exceedance_probabilities"],
-        "low_benchmarks": [f"results/mc/{case}/{'control/' if CONTROL else ''}chunk_{k}.benchmark.tsv"
-                           for k in mc_chunk_ids(case)],
+        "low_benchmarks": [path.replace(".csv", ".benchmark.tsv")
+                           for path in route_chunks(case, "control" if CONTROL else "realizations")],
         "cheap_route": CHEAP_ROUTE,
         "coarse_cell_size_m": config["mesh"]["cell_size_m"],
         "high_benchmark_pattern": f"results/mc/{case}/paired/chunk_{{chunk:03d}}.benchmark.tsv",
@@ -261,26 +253,10 @@ def multifidelity_params(wildcards):
     }
 
 
-def mc_model(wildcards):
-    """The trained learned simulator, when one is the Monte Carlo simulator."""
-    return [SURROGATE_MODEL] if config["montecarlo"]["simulator"] != "mpm" else []
-
-
 def report_gate(wildcards):
     """The validation gate's verdicts for the report's top, whenever a learned simulator ran the Monte Carlo
     (whether or not the gate decides anything)."""
     return ["results/report/validation/gate.json"] if SURROGATE else []
-
-
-def mc_gate(wildcards):
-    """The validation gate's verdicts, when a learned simulator is the Monte Carlo's and
-    validation.acceptance.on_failure is stop (a case it fails stops); with report it decides nothing."""
-    return report_gate(wildcards) if config["validation"]["acceptance"]["on_failure"] == "stop" else []
-
-
-def mc_chunks(wildcards):
-    """Every Monte Carlo chunk table of a case."""
-    return [f"results/mc/{wildcards.case}/chunk_{k}.csv" for k in mc_chunk_ids(wildcards.case)]
 
 
 def case_scenes(wildcards):
@@ -375,13 +351,6 @@ def report_foundations(wildcards):
     for case in TEST_CASES if SURROGATE else []:
         files += [f"results/validation/{case}/pairs.csv", f"results/validation/{case}/energies.npz"]
     for case in MC_CASES:
-        named = SimpleNamespace(case=case)
-        files += mc_chunks(named) + [f"results/mc/{case}/realizations.csv", f"results/mc/{case}/mean_field.csv"]
-        if MULTIFIDELITY_FILES:
-            files += mc_paired_chunks(named) + [f"results/mc/{case}/paired.csv"]
-            if EXTRAPOLATE:
-                files += mc_coarse_chunks(named) + mc_coarse_table(named)
-            if CONTROL:
-                files += [f"results/mc/{case}/control/chunk_{k}.csv" for k in mc_chunk_ids(case)]
-                files += [f"results/mc/{case}/control.csv"]
+        for name in ROUTES:
+            files += route_chunks(case, name) + [f"results/mc/{case}/{name}.csv"]
     return files

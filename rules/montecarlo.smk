@@ -1,45 +1,30 @@
 rule mc_chunk:
-    """Draw, simulate (montecarlo.simulator) and measure one chunk of a case's Monte Carlo realizations."""
+    """One chunk of one route of a case's realizations (rgns/montecarlo/routes.py): drawn, simulated and
+    measured. The routes: realizations (every Monte Carlo realization, by montecarlo.simulator) and
+    mean_field (the deterministic mean-field one); with montecarlo.fidelity.paired, paired (the realizations
+    paired_plan chose, by the MPM at the accurate mesh) and with mesh_order paired_coarse (the same, at the
+    Monte Carlo's mesh); with cheap tuned, control (every realization by the tuned end-state surrogate, no
+    gate: a poor control widens the intervals, it cannot bias them)."""
     input:
-        model=mc_model,
-        gate=mc_gate,
+        model=route_model,
+        gate=route_gate,
+        plan=route_plan,
     output:
-        "results/mc/{case}/chunk_{chunk}.csv",
+        "results/mc/{case}/{route}/chunk_{chunk}.csv",
     params:
-        inputs=mc_case_params,
-        run=mc_run_params,
-        indices=mc_chunk_indices,
+        inputs=route_case_params,
+        run=route_run_params,
+        listing=route_listing,
+    wildcard_constraints:
+        route="|".join(ROUTES),
     log:
-        "logs/mc_chunk/{case}/chunk_{chunk}.log",
+        "logs/mc_chunk/{case}/{route}/chunk_{chunk}.log",
     benchmark:
-        "results/mc/{case}/chunk_{chunk}.benchmark.tsv"
+        "results/mc/{case}/{route}/chunk_{chunk}.benchmark.tsv"
     threads: config["montecarlo"]["threads"]
     resources:
-        mem_mb=2000,
-        gpu=gpus(config["montecarlo"]["device"]),
-    conda:
-        "../envs/rgns.yaml"
-    script:
-        "../workflow/scripts/mc_chunk.py"
-
-
-rule mc_mean_field:
-    """The deterministic mean-field realization of a case (mean geometry, uniform mean friction)."""
-    input:
-        model=mc_model,
-        gate=mc_gate,
-    output:
-        "results/mc/{case}/mean_field.csv",
-    params:
-        inputs=mc_case_params,
-        run=mc_run_params,
-        indices=[-1],
-    log:
-        "logs/mc_mean_field/{case}.log",
-    threads: config["montecarlo"]["threads"]
-    resources:
-        mem_mb=2000,
-        gpu=gpus(config["montecarlo"]["device"]),
+        mem_mb=route_mem_mb,
+        gpu=route_gpu,
     conda:
         "../envs/rgns.yaml"
     script:
@@ -47,131 +32,23 @@ rule mc_mean_field:
 
 
 rule mc_collect:
-    """Concatenate a case's chunk tables into one table of every realization."""
+    """One route's chunk tables of a case as one table in the route's order, each chunk checked to hold
+    exactly its share (rgns.montecarlo.runs.collect_listed)."""
     input:
-        mc_chunks,
+        chunks=route_chunk_files,
+        plan=route_plan,
     output:
-        "results/mc/{case}/realizations.csv",
+        "results/mc/{case}/{route}.csv",
     params:
-        realizations=config["montecarlo"]["realizations"],
-        chunk_size=config["montecarlo"]["chunk_size"],
+        listing=route_listing,
+    wildcard_constraints:
+        route="|".join(ROUTES),
     log:
-        "logs/mc_collect/{case}.log",
+        "logs/mc_collect/{case}/{route}.log",
     conda:
         "../envs/rgns.yaml"
     script:
         "../workflow/scripts/mc_collect.py"
-
-
-rule mc_paired_chunk:
-    """The chunk's realizations of those paired_plan chose, by the MPM at the accurate mesh (the same geometry
-    and field): the high-fidelity half of the multi-fidelity pairs."""
-    input:
-        model=[],
-        gate=[],
-        plan="results/mc/{case}/paired_plan.json",
-    output:
-        "results/mc/{case}/paired/chunk_{chunk}.csv",
-    params:
-        inputs=mc_paired_case_params,
-        run=mc_paired_run_params,
-        indices=mc_paired_chunk_indices,
-    log:
-        "logs/mc_paired_chunk/{case}/chunk_{chunk}.log",
-    benchmark:
-        "results/mc/{case}/paired/chunk_{chunk}.benchmark.tsv"
-    threads: config["montecarlo"]["threads"]
-    resources:
-        mem_mb=4000,
-    conda:
-        "../envs/rgns.yaml"
-    script:
-        "../workflow/scripts/mc_chunk.py"
-
-
-rule mc_coarse_chunk:
-    """With montecarlo.fidelity.mesh_order: the paired chunk's realizations once more, by the MPM at the
-    Monte Carlo's own mesh (mesh.cell_size_m): the coarser of the two meshes whose paired difference, at
-    the measured order, extrapolates the accurate MPM to the converged mesh."""
-    input:
-        model=[],
-        gate=[],
-        plan="results/mc/{case}/paired_plan.json",
-    output:
-        "results/mc/{case}/paired_coarse/chunk_{chunk}.csv",
-    params:
-        inputs=mc_coarse_case_params,
-        run=mc_paired_run_params,
-        indices=mc_paired_chunk_indices,
-    log:
-        "logs/mc_coarse_chunk/{case}/chunk_{chunk}.log",
-    benchmark:
-        "results/mc/{case}/paired_coarse/chunk_{chunk}.benchmark.tsv"
-    threads: config["montecarlo"]["threads"]
-    resources:
-        mem_mb=2000,
-    conda:
-        "../envs/rgns.yaml"
-    script:
-        "../workflow/scripts/mc_chunk.py"
-
-
-rule mc_control_chunk:
-    """With montecarlo.fidelity.cheap tuned: the chunk's realizations by the end-state surrogate tuned to the
-    accurate MPM, the control variate of the correction (no gate: a poor control widens the intervals, it
-    cannot bias them)."""
-    input:
-        model=["results/model/endstate_tuned.pt"],
-        gate=[],
-    output:
-        "results/mc/{case}/control/chunk_{chunk}.csv",
-    params:
-        inputs=mc_case_params,
-        run=mc_control_run_params,
-        indices=mc_chunk_indices,
-    log:
-        "logs/mc_control_chunk/{case}/chunk_{chunk}.log",
-    benchmark:
-        "results/mc/{case}/control/chunk_{chunk}.benchmark.tsv"
-    threads: config["montecarlo"]["threads"]
-    resources:
-        mem_mb=2000,
-    conda:
-        "../envs/rgns.yaml"
-    script:
-        "../workflow/scripts/mc_chunk.py"
-
-
-rule mc_control_collect:
-    """Concatenate a case's control chunk tables."""
-    input:
-        lambda wildcards: [f"results/mc/{wildcards.case}/control/chunk_{k}.csv" for k in mc_chunk_ids(wildcards.case)],
-    output:
-        "results/mc/{case}/control.csv",
-    params:
-        realizations=config["montecarlo"]["realizations"],
-        chunk_size=config["montecarlo"]["chunk_size"],
-    log:
-        "logs/mc_control_collect/{case}.log",
-    conda:
-        "../envs/rgns.yaml"
-    script:
-        "../workflow/scripts/mc_collect.py"
-
-
-rule mc_coarse_collect:
-    """Concatenate a case's coarse paired chunk tables (the same chunks as mc_paired_collect's)."""
-    input:
-        chunks=mc_coarse_chunks,
-        plan="results/mc/{case}/paired_plan.json",
-    output:
-        "results/mc/{case}/paired_coarse.csv",
-    log:
-        "logs/mc_coarse_collect/{case}.log",
-    conda:
-        "../envs/rgns.yaml"
-    script:
-        "../workflow/scripts/mc_paired_collect.py"
 
 
 rule paired_plan:
@@ -193,21 +70,6 @@ rule paired_plan:
         "../workflow/scripts/paired_plan.py"
 
 
-rule mc_paired_collect:
-    """Concatenate a case's paired chunk tables, checked against the plan."""
-    input:
-        chunks=mc_paired_chunks,
-        plan="results/mc/{case}/paired_plan.json",
-    output:
-        "results/mc/{case}/paired.csv",
-    log:
-        "logs/mc_paired_collect/{case}.log",
-    conda:
-        "../envs/rgns.yaml"
-    script:
-        "../workflow/scripts/mc_paired_collect.py"
-
-
 rule multifidelity:
     """A case's exceedance curves, zoning and means corrected towards the accurate MPM (control variates),
     and with montecarlo.fidelity.mesh_order carried to the converged mesh (rgns/fidelity/mesh_extrapolation.py)."""
@@ -216,7 +78,7 @@ rule multifidelity:
         simulator="results/mc/{case}/realizations.csv",
         paired="results/mc/{case}/paired.csv",
         coarse=mc_coarse_table,
-        plan=mc_paired_plan,
+        plan="results/mc/{case}/paired_plan.json",
     output:
         json="results/report/{case}/multifidelity.json",
         figure=report("results/report/{case}/multifidelity.png", caption="../docs/captions/multifidelity.rst",

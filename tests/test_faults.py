@@ -104,13 +104,13 @@ def test_a_killed_monte_carlo_reruns_only_its_missing_chunks_and_leaves_finished
     # killed once Snakemake has recorded a chunk as finished (a chunk written but not yet recorded
     # counts as incomplete, and --rerun-incomplete redoes it, as it should)
     kill_when(run, lambda: "(Rule: mc_chunk)" in log.read_text(), workdir, workdir / "config.yaml")
-    finished = fingerprints(workdir, "results/mc/case1/chunk_*.csv")
+    finished = fingerprints(workdir, "results/mc/case1/realizations/chunk_*.csv")
     assert 1 <= len(finished) < 3 and not (mc / "realizations.csv").exists()
     jobs = scheduled(snakemake(workdir, "-n", "--rerun-incomplete", target, config=workdir / "config.yaml"))
     assert jobs == {"mc_chunk": 3 - len(finished), "mc_collect": 1}
     result = snakemake(workdir, "--cores", "2", "--rerun-incomplete", target, config=workdir / "config.yaml")
     assert result.returncode == 0, result.stderr
-    after = fingerprints(workdir, "results/mc/case1/chunk_*.csv")
+    after = fingerprints(workdir, "results/mc/case1/realizations/chunk_*.csv")
     assert {name: after[name] for name in finished} == finished  # same bytes, never rewritten
     assert (mc / "realizations.csv").read_bytes() == (built[0] / target).read_bytes()  # same table as the first run
 
@@ -146,9 +146,9 @@ FAULTS = [
     ("results/mc/case1/realizations.csv", truncate, "results/mc/case1/realizations.csv is damaged (TableError"),
     ("results/mc/case1/realizations.csv", Path.unlink, None),
     (
-        "results/mc/case1/chunk_001.csv",
+        "results/mc/case1/realizations/chunk_001.csv",
         cut_a_row,
-        "results/mc/case1/chunk_001.csv is damaged (TableError: holds realizations [2], not [2, 3] (cut short",
+        "results/mc/case1/realizations/chunk_001.csv is damaged (TableError: holds realizations [2], not [2, 3] (cut short",
     ),
     ("results/mpm/case1/chunk_000/0001.h5", truncate, "results/mpm/case1/chunk_000 (its member 0001.h5) is damaged"),
     ("results/mpm/case1/chunk_000/0001.h5", Path.unlink, "results/mpm/case1/chunk_000 lacks 0001.h5: removed"),

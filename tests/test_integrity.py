@@ -35,16 +35,16 @@ def test_a_folder_output_short_of_a_member_and_a_chunk_holding_other_realization
     folder = tmp_path / "results" / "mpm" / "case1" / "chunk_000"
     folder.mkdir(parents=True)
     (folder / "0000.h5").write_bytes(b"")
-    chunk = table(tmp_path / "results" / "mc" / "case1" / "chunk_001.csv", [2])
+    chunk = table(tmp_path / "results" / "mc" / "case1" / "realizations" / "chunk_001.csv", [2])
     said: list[str] = []
     removed = sweep(
         tmp_path,
         folders={"results/mpm/case1/chunk_000": ["0000.h5", "0001.h5"]},
-        chunks={"results/mc/case1/chunk_001.csv": [2, 3]},
+        chunks={"results/mc/case1/realizations/chunk_001.csv": [2, 3]},
         kinds=(),
         say=said.append,
     )
-    assert removed == ["results/mpm/case1/chunk_000", "results/mc/case1/chunk_001.csv"]
+    assert removed == ["results/mpm/case1/chunk_000", "results/mc/case1/realizations/chunk_001.csv"]
     assert not folder.exists() and not chunk.exists()
     assert said[0] == "rgns: results/mpm/case1/chunk_000 lacks 0001.h5: removed, so that this run makes it again"
     assert "holds realizations [2], not [2, 3]" in said[1]

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import REPO, TINY_CONFIG
-from workflow_helpers import scheduled, snakemake, write_config
+from workflow_helpers import scheduled, scheduled_routes, snakemake, write_config
 
 from rgns.config import load_config, load_yaml
 from rgns.scene.fields import read_field
@@ -28,8 +28,10 @@ pytestmark = pytest.mark.workflow
 def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped_model(tmp_path):
     """The shipped geometry-general end-state surrogate (the default): no training-set MPM run and no training
     is scheduled, and no MPM run of the whole Monte Carlo: the MPM runs only the test cases' validation
-    (mpm_run) and the pairs (mc_paired_chunk, mc_coarse_chunk); mc_chunk runs the surrogate, gate or not."""
-    jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map"))
+    (mpm_run) and the pairs (mc_chunk's routes paired and paired_coarse, over the plan's realizations only);
+    every realization runs by the surrogate (route realizations) and the tuned control, gate or not."""
+    dry_run = snakemake(tmp_path, "-n", "hazard_map")
+    jobs = scheduled(dry_run)
     config = load_config(REPO / "config" / "config.yaml")
     assert config["montecarlo"]["simulator"] == "endstate" and config["endstate"]["model"] == "general"
     cases = {name: groups for name, groups in config["sets"].items() if name not in ("train", "valid")}
@@ -37,6 +39,7 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
     chunks = sum(-(-size // config["mpm"]["chunk_size"]) for size in sizes)
     montecarlo = config["montecarlo"]
     mc_cases = len(montecarlo["cases"])
+    routes = scheduled_routes(dry_run)
     assert jobs == {
         "geometry": sum(sizes),
         "random_field": sum(sizes),
@@ -47,24 +50,25 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
         "shipped_endstate": 1,
         "validation_rollout": len(cases),
         "validate": 1,
-        "mc_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
-        "mc_mean_field": mc_cases,
-        "mc_collect": mc_cases,
+        "mc_chunk": sum(routes.values()),
+        "mc_collect": mc_cases * len(routes),
         "exceedance": mc_cases,
         "zoning": mc_cases,
-        "mc_paired_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["fidelity"]["chunk_size"]),
-        "mc_paired_collect": mc_cases,
         "paired_plan": mc_cases,
         "multifidelity": mc_cases,
         "report": 1,
         "hazard_map": 1,
-        # the pairs again at the Monte Carlo's mesh: the coarser level of the mesh extrapolation
-        "mc_coarse_chunk": mc_cases * -(-montecarlo["fidelity"]["paired"] // montecarlo["fidelity"]["chunk_size"]),
-        "mc_coarse_collect": mc_cases,
-        # the correction's control variate: the shipped tuned surrogate on every realization
+        # the correction's control variate: the shipped tuned surrogate
         "shipped_tuned_endstate": 1,
-        "mc_control_chunk": mc_cases * -(-montecarlo["realizations"] // montecarlo["chunk_size"]),
-        "mc_control_collect": mc_cases,
+    }
+    every = -(-montecarlo["realizations"] // montecarlo["chunk_size"])
+    pairs = -(-montecarlo["fidelity"]["paired"] // montecarlo["fidelity"]["chunk_size"])
+    assert routes == {
+        "realizations": mc_cases * every,  # every realization by the surrogate
+        "mean_field": mc_cases,
+        "control": mc_cases * every,  # and by the tuned surrogate, the correction's control variate
+        "paired": mc_cases * pairs,  # the plan's pairs by the MPM at 0.5 m
+        "paired_coarse": mc_cases * pairs,  # and at the Monte Carlo's mesh: the mesh extrapolation's coarse level
     }
     assert montecarlo["fidelity"]["cheap"] == "tuned" and montecarlo["realizations"] == 10_000
     assert config["validation"]["acceptance"]["on_failure"] == "report"  # mc_chunk does not wait for the gate
@@ -81,9 +85,8 @@ def test_a_plain_mpm_monte_carlo_at_half_metre_cells_needs_no_learned_simulator(
     config["montecarlo"]["fidelity"]["paired"] = 0
     jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map", config=write_config(tmp_path / "mpm.yaml", config)))
     assert jobs == {
-        "mc_chunk": 2,
-        "mc_mean_field": 1,
-        "mc_collect": 1,
+        "mc_chunk": 3,
+        "mc_collect": 2,
         "exceedance": 1,
         "zoning": 1,
         "report": 1,
@@ -103,11 +106,11 @@ def test_training_from_scratch_schedules_the_training_sets_and_the_training(tmp_
 
 def test_a_nested_config_override_with_numbers_works_as_the_readme_writes_it(tmp_path):
     """``--config 'montecarlo={realizations: 320, chunk_size: 32}'`` (Snakemake passes the numbers as text)."""
-    jobs = scheduled(
+    routes = scheduled_routes(
         snakemake(tmp_path, "-n", "hazard_map", "--config", "montecarlo={realizations: 320, chunk_size: 32}")
     )
     cases = len(load_config(REPO / "config" / "config.yaml")["montecarlo"]["cases"])
-    assert jobs["mc_chunk"] == 10 * cases
+    assert routes["realizations"] == routes["control"] == 10 * cases
 
 
 def test_a_bad_config_stops_before_any_job_runs_naming_key_and_value(tmp_path):
@@ -275,7 +278,7 @@ def test_deleting_one_monte_carlo_chunk_reruns_only_that_chunk_and_reproduces_it
     missing chunk runs again, and gives the same bytes."""
     workdir, config = built
     results = workdir / "results"
-    chunk = results / "mc" / "case1" / "chunk_001.csv"
+    chunk = results / "mc" / "case1" / "realizations" / "chunk_001.csv"
     before = chunk.read_bytes()
     for path in [
         chunk,
@@ -322,7 +325,7 @@ def test_jobs_ask_their_scheduler_for_a_gpu_exactly_when_their_device_is_cuda(tm
 
     def gpu_requests(config: Path) -> dict[str, set[str]]:
         output = snakemake(
-            tmp_path, "-n", "results/mc/case1/chunk_000.csv", "results/model/gns.pt", config=config
+            tmp_path, "-n", "results/mc/case1/realizations/chunk_000.csv", "results/model/gns.pt", config=config
         ).stdout
         requests: dict[str, set[str]] = {}
         for block in output.split("\nrule ")[1:]:
@@ -360,12 +363,14 @@ def test_the_gate_reports_a_failed_model_or_stops_when_told(built, tmp_path):
     assert "FAILED the validation gate" in page.split("Configuration</h2>")[0]
 
     strict["validation"]["acceptance"]["on_failure"] = "stop"
-    for chunk in (copy_dir / "results" / "mc" / "case1").glob("chunk_*.csv"):
+    for chunk in (copy_dir / "results" / "mc" / "case1" / "realizations").glob("chunk_*.csv"):
         chunk.unlink()
     result = snakemake(copy_dir, "--cores", "2", "hazard_map", config=write_config(tmp_path / "stop.yaml", strict))
     assert result.returncode != 0
     assert "case1: the GNS failed the validation gate (runout R²" in result.stdout + result.stderr
-    logs = [path.read_text() for path in (copy_dir / "logs" / "mc_chunk" / "case1").glob("chunk_*.log")]
+    logs = [
+        path.read_text() for path in (copy_dir / "logs" / "mc_chunk" / "case1" / "realizations").glob("chunk_*.log")
+    ]
     assert any("case1: the GNS failed" in log for log in logs)  # the chunk that failed first says why
     assert (copy_dir / "results" / "validation" / "case1" / "pairs.csv").exists()
 

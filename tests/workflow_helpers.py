@@ -7,6 +7,7 @@ import re
 import signal
 import subprocess
 import sys
+from collections import Counter
 from pathlib import Path
 
 import yaml
@@ -63,6 +64,14 @@ def scheduled(result: subprocess.CompletedProcess) -> dict[str, int]:
         counts[match.group(1)] = int(match.group(2))
     counts.pop("total", None)
     return counts
+
+
+def scheduled_routes(result: subprocess.CompletedProcess) -> dict[str, int]:
+    """Route -> mc_chunk job count from a dry run (rgns/montecarlo/routes.py: which model runs which
+    realizations), read off the jobs' outputs results/mc/<case>/<route>/chunk_<k>.csv."""
+    output = result.stdout + result.stderr
+    assert result.returncode == 0, output
+    return dict(Counter(re.findall(r"output: results/mc/[^/\s]+/(\w+)/chunk_\d+\.csv", output)))
 
 
 def write_config(path: Path, config: dict) -> Path:

@@ -31,6 +31,7 @@ import pandas as pd
 
 from rgns.engines.batch import Simulated, run_mpm, simulate_mpm
 from rgns.engines.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
+from rgns.montecarlo.routes import chunk_share
 from rgns.montecarlo.screening import ScreenSettings, minimum_factor_of_safety
 from rgns.scene.realizations import (
     FINISHED,
@@ -153,26 +154,13 @@ COLUMNS = [
 ]
 
 
-def collect_chunks(paths: list[str], realizations: int, chunk_size: int) -> pd.DataFrame:
-    """A case's chunk tables (chunk k holds realizations k*chunk_size onward) as one table in
-    index order, each checked to hold exactly its realizations: one cut short, or left over from
-    another montecarlo config, is named."""
-    if len(paths) != -(-realizations // chunk_size):
-        raise TableError(f"{len(paths)} chunk tables for {realizations} realizations in chunks of {chunk_size}")
-    tables = []
-    for k, path in enumerate(paths):
-        expected = list(range(k * chunk_size, min((k + 1) * chunk_size, realizations)))
-        table = read_chunk(path, expected, COLUMNS)
-        tables.append(table)
-    return pd.concat(tables, ignore_index=True).sort_values("index", kind="stable").reset_index(drop=True)
-
-
-def collect_listed(paths: list[str], indices: list[int]) -> pd.DataFrame:
+def collect_listed(paths: list[str], indices: list[int], chunk_size: int) -> pd.DataFrame:
     """Chunk tables that together hold the listed realizations, in the list's order, chunk k its k-th share
-    (len(indices) / len(paths) rounded up), each checked to hold exactly those: one cut short, or left over
-    from another plan, is named."""
-    size = -(-len(indices) // max(1, len(paths)))
-    tables = [read_chunk(path, sorted(indices[k * size : (k + 1) * size]), COLUMNS) for k, path in enumerate(paths)]
+    of ``chunk_size`` (rgns.montecarlo.routes.chunk_share), each checked to hold exactly those: one cut
+    short, or left over from another montecarlo config or pair plan, is named."""
+    if len(paths) != -(-len(indices) // chunk_size):
+        raise TableError(f"{len(paths)} chunk tables for {len(indices)} realizations in chunks of {chunk_size}")
+    tables = [read_chunk(path, sorted(chunk_share(indices, k, chunk_size)), COLUMNS) for k, path in enumerate(paths)]
     table = pd.concat(tables, ignore_index=True).set_index("index", drop=False)
     return table.loc[list(indices)].reset_index(drop=True)
 

@@ -14,7 +14,7 @@ import pytest
 import rasterio
 from conftest import REPO, TINY_CONFIG
 from rasterio.transform import Affine
-from workflow_helpers import scheduled, snakemake, write_config
+from workflow_helpers import scheduled, scheduled_routes, snakemake, write_config
 
 from rgns.config import ConfigError, load_yaml, validate_config
 from rgns.hazard.site_gis import best_estimate_zoning, exceedance_by_chainage, write_site_gis
@@ -352,11 +352,13 @@ def test_a_dem_site_runs_through_the_workflow_to_its_gis_files_and_its_map_in_th
     config = site_config(tmp_path)
     config["montecarlo"]["cases"] = ["case1", "hill"]
     path = write_config(tmp_path / "site.yaml", config)
-    plan = scheduled(snakemake(work, "-n", "hazard_map", config=path))
-    assert "train" not in plan and plan["site_gis"] == 1 and plan["geometry"] == 2 and plan["mc_paired_chunk"] == 1
-    # the site's 3 chunks alone: the validation gate is decided anew over both cases, and decides nothing
+    dry_run = snakemake(work, "-n", "hazard_map", config=path)
+    plan, routes = scheduled(dry_run), scheduled_routes(dry_run)
+    assert "train" not in plan and plan["site_gis"] == 1 and plan["geometry"] == 2
+    # the site's chunks alone: the validation gate is decided anew over both cases, and decides nothing
     # (validation.acceptance.on_failure: report), so case 1's chunks stand
-    assert plan["mc_chunk"] == 3 and plan["validate"] == 1 and plan["validation_rollout"] == 1
+    assert routes == {"realizations": 3, "mean_field": 1, "paired": 1, "paired_coarse": 1}
+    assert plan["validate"] == 1 and plan["validation_rollout"] == 1
     result = snakemake(work, "--cores", "2", "hazard_map", config=path)
     assert result.returncode == 0, result.stderr[-3000:]
     site = work / "results" / "site" / "hill"

@@ -1,9 +1,8 @@
-"""Rules mc_chunk, mc_mean_field, mc_control_chunk, mc_paired_chunk and mc_coarse_chunk: simulate and measure
-some Monte Carlo realizations of a case.
+"""Rule mc_chunk: simulate and measure one chunk of one route of a case's realizations (rgns.montecarlo.routes).
 
-The paired chunks take their realizations from the list rule paired_plan chose. With a learned simulator
-and validation.acceptance.on_failure stop, a case that failed the validation gate stops here with the
-failures named; otherwise the gate decides nothing."""
+A route that runs the pairs takes its realizations from the list rule paired_plan chose. With a learned
+simulator and validation.acceptance.on_failure stop, a case that failed the validation gate stops here with
+the failures named; otherwise the gate decides nothing."""
 
 import json
 import sys
@@ -12,6 +11,7 @@ from pathlib import Path
 import torch
 
 from rgns.logsetup import log_to_file
+from rgns.montecarlo.routes import chunk_share
 from rgns.montecarlo.runs import SURROGATES, CaseInputs, RunSettings, run_realizations
 from rgns.scene.realizations import FINISHED
 from rgns.surrogates.endstate.model import load_model
@@ -30,22 +30,23 @@ if snakemake.input.gate:
         log.error("%s", error)
         print(f"rgns: {error}", file=sys.__stderr__, flush=True)
         sys.exit(1)
-indices = snakemake.params.indices
-if "plan" in snakemake.input.keys():  # a paired chunk: its share of the realizations paired_plan chose
-    chosen = json.loads(Path(snakemake.input.plan).read_text())["indices"]
-    first = indices["chunk"] * indices["chunk_size"]
-    indices = chosen[first : first + indices["chunk_size"]]
+listing = snakemake.params.listing
+listed = listing["listed"]
+if listed is None:  # a route of the pairs: the realizations paired_plan chose
+    listed = json.loads(Path(snakemake.input.plan[0]).read_text())["indices"]
+indices = chunk_share(listed, int(snakemake.wildcards.chunk), listing["chunk_size"])
 loaders = {
     "gns": lambda path: load_simulator(path, settings.device).eval(),
     "endstate": lambda path: load_model(path, settings.device),
 }
 use_model = snakemake.input.model and settings.simulator in SURROGATES
 simulator = loaders[settings.simulator](snakemake.input.model[0]) if use_model else None
-table = run_realizations(inputs, list(indices), settings, simulator)
+table = run_realizations(inputs, indices, settings, simulator)
 write_csv(table, snakemake.output[0])
 log.info(
-    "%s: %d realizations by %s, %d screened as stable, %d not ok",
+    "%s, route %s: %d realizations by %s, %d screened as stable, %d not ok",
     inputs.case,
+    snakemake.wildcards.route,
     len(table),
     settings.simulator,
     int((table["status"] == "screened").sum()),

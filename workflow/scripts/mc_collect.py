@@ -1,13 +1,25 @@
-"""Rules mc_collect and mc_control_collect: one table of every Monte Carlo realization of a case, in index order."""
+"""Rule mc_collect: one table of one route of a case's realizations, in the route's order, each chunk
+checked to hold exactly its share (rgns.montecarlo.runs.collect_listed); a route of the pairs in the
+order rule paired_plan chose them."""
+
+import json
+from pathlib import Path
 
 from rgns.logsetup import log_to_file
-from rgns.montecarlo.runs import collect_chunks
+from rgns.montecarlo.runs import collect_listed
 from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])
-params = snakemake.params
-table = collect_chunks(snakemake.input, params.realizations, params.chunk_size)
+listing = snakemake.params.listing
+listed = listing["listed"]
+if listed is None:
+    listed = json.loads(Path(snakemake.input.plan[0]).read_text())["indices"]
+table = collect_listed(snakemake.input.chunks, listed, listing["chunk_size"])
 write_csv(table, snakemake.output[0])
 log.info(
-    "%d realizations from %d chunks, %d not ok", len(table), len(snakemake.input), int((table["status"] != "ok").sum())
+    "route %s: %d realizations from %d chunks, %d not ok",
+    snakemake.wildcards.route,
+    len(table),
+    len(snakemake.input.chunks),
+    int((table["status"] != "ok").sum()),
 )

@@ -23,7 +23,7 @@ if all(len(measured[name]) == len(benchmarks[name]) for name in measured):
 else:  # chunks made before their runs were timed
     cost = {"low_s": float("nan"), "high_s": float("nan")}
     log.warning("some chunks have no benchmark file: the cost of each route is not known")
-plan = json.loads(Path(snakemake.input.plan[0]).read_text())
+plan = json.loads(Path(snakemake.input.plan).read_text())
 coarse = read_csv(snakemake.input.coarse[0]) if snakemake.input.coarse else None
 record = write_multifidelity(
     low, high, settings, cost, dict(snakemake.output.items()), snakemake.wildcards.case, plan, simulator, coarse
