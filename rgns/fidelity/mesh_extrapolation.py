@@ -243,12 +243,14 @@ def converged(
         if order is None:
             finest = multilevel(levels, confidence, seed=seed, strata=strata)
             step, step_range, value, lower, upper = None, None, finest.estimate[0], finest.lower[0], finest.upper[0]
+            at_order = (lower, upper)
         else:
             estimate = extrapolated(levels, ratio, order[0], (order[1], order[2]), confidence, seed=seed, strata=strata)
             finest = estimate.finest
             step = float(estimate.mesh_error[0])
             step_range = [float(estimate.mesh_error_range[0][0]), float(estimate.mesh_error_range[1][0])]
             value, lower, upper = estimate.estimate[0], estimate.lower[0], estimate.upper[0]
+            at_order = (estimate.at_order[0][0], estimate.at_order[1][0])
         record["means"][key] = {
             "cheap_mean": float(finest.level_means[2][0]),
             "coarse_mean": float(finest.level_means[1][0]),
@@ -258,6 +260,7 @@ def converged(
             "mesh_step": step,
             "mesh_step_range": step_range,
             "estimate": float(value),
+            "interval_at_order": [float(at_order[0]), float(at_order[1])],  # sampling alone
             "lower": float(lower),
             "upper": float(upper),
         }

@@ -201,11 +201,13 @@ def multilevel(
 class Extrapolated:
     """The converged answer per quantity and its interval (sampling, weights and the order's
     interval), the Richardson step added to the finest level's estimate at the order's point value
-    and at its interval's ends, and the finest level's own estimate."""
+    and at its interval's ends, and the finest level's own estimate. ``at_order``: the interval at the
+    order's point value alone (sampling and weights: what coverage over replicates can check)."""
 
     estimate: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
+    at_order: tuple[np.ndarray, np.ndarray]
     mesh_error: np.ndarray
     mesh_error_range: tuple[np.ndarray, np.ndarray]
     order: float
@@ -257,13 +259,13 @@ def extrapolated(
     w = design_weights(strata, n0)[:, None]
     steps = richardson_step((arrays[0] * w).sum(axis=0), (arrays[1][:n0] * w).sum(axis=0), ratio, orders[:, None])
     point = finest.estimate.reshape(-1) + steps[0]
-    lower = np.minimum(np.asarray(lower).reshape(3, q).min(axis=0), point)
-    upper = np.maximum(np.asarray(upper).reshape(3, q).max(axis=0), point)
+    lower, upper = np.asarray(lower).reshape(3, q), np.asarray(upper).reshape(3, q)
     shape = finest.estimate.shape
     return Extrapolated(
         estimate=point.reshape(shape),
-        lower=lower.reshape(shape),
-        upper=upper.reshape(shape),
+        lower=np.minimum(lower.min(axis=0), point).reshape(shape),
+        upper=np.maximum(upper.max(axis=0), point).reshape(shape),
+        at_order=(np.minimum(lower[0], point).reshape(shape), np.maximum(upper[0], point).reshape(shape)),
         mesh_error=steps[0].reshape(shape),
         mesh_error_range=(steps.min(axis=0).reshape(shape), steps.max(axis=0).reshape(shape)),
         order=order,
