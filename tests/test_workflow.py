@@ -478,9 +478,10 @@ def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built
     pairs = read_csv(results / "validation" / "case1" / "pairs.csv")
     assert len(pairs) == 2 and pairs["runout_m_gns"].notna().all()  # the validation's own realizations
     page = (results / "report" / "report.html").read_text()
-    assert "End-state surrogate" in page and "the end-state surrogate FAILED the validation gate" in page.split(
-        "Configuration</h2>"
-    )[0]
+    assert (
+        "End-state surrogate" in page
+        and "the end-state surrogate FAILED the validation gate" in page.split("Configuration</h2>")[0]
+    )
     assert packed.stat().st_mtime_ns == before
 
     # its card: validated on endstate.validation's sets (their own seed) first; the model is not retrained
