@@ -1,8 +1,9 @@
 """Do the pipeline's intervals hold for the default design (10,000 cheap realizations, 32 random pairs)?
 
-    OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --replicates 200 --seed 20261201
-    OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --sabotage --replicates 100 --seed 20261201
+    OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --replicates 200 --seed 20261204
+    OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --sabotage --replicates 100 --seed 20261204
     .venv/bin/python benchmarks/pair_coverage.py --report       # the tables from what the json holds
+    (each with --population finite: the finite population's answers, below)
 
 Design under test: the default config's (config/config.yaml) multi-fidelity chain for case 1: N =
 montecarlo.realizations cheap runs by montecarlo.fidelity.cheap (tuned: rgns/models/endstate_tuned.pt),
@@ -13,7 +14,7 @@ montecarlo.fidelity.high_cell_size_m and at mesh.cell_size_m, extrapolated at mo
 Population (SYNTHETIC, CALIBRATED ON REAL PAIRS; no GPU ran the 10,000 MPM pairs it would take):
 
 * cheap values: the tuned end-state surrogate run on realizations 0 … 9,999 of case 1 as the pipeline's
-  mc_control_chunk runs it (``CaseInputs.from_config``, ``run_realizations`` with simulator "endstate", one
+  mc_chunk runs route control (``CaseInputs.from_config``, ``run_realizations`` with simulator "endstate", one
   thread; benchmarks/cheap_route.py), cached in benchmarks/results/pair_coverage_cheap.npz;
 * MPM values: per metric (runout_m, volume_m2, influence_m), h_0.5 = a + b·cheap + e_0.5 and h_1 = c + d·cheap
   + e_1, the lines least-squares fits on the 128 real triples (cheap, MPM 0.5 m, MPM 1 m) of case 1's
@@ -44,9 +45,20 @@ its pairs cannot bound: rgns.fidelity.outputs.open_unreached_tails); any other o
 interval (an end beyond the curves' distances) counts as not covering. A miss "below": the interval lies
 below the answer; "above": above it.
 
+Three populations (--population). super (the default): a pair's MPM values are its member's fitted lines plus one
+real realization's residuals drawn afresh for each pair, and the answers are those of that law (every member with
+every real residual): the pipeline estimates the slope's law, not the particular realizations of one run.
+finite: each member keeps the residuals drawn for it once (--population-seed), and the answers are that finite
+population's; its 1 % tail departs from the law it was drawn from by about one sampling SE of a 10,000-member
+quantile, which no 32 pairs can see (measured: the modelled crossings of the whole population's lines miss its
+P 0.01 quantiles by −0.12 m at 0.5 m and +0.16 m at 1 m, a step 0.3 m short). local: as super, but each
+member draws its residuals from the 32 real realizations nearest to it in cheap runout, so that their spread grows
+with the cheap value as the real pairs' does: the modelled mesh step assumes one spread, and this tests it.
+
 --sabotage: the same population with the cheap rows permuted across realizations (correlation ~0 with the
-MPM). Results are checkpointed to benchmarks/results/pair_coverage.json after every replicate; a rerun with
-the same seed resumes. Writes benchmarks/results/pair_coverage.{md,json}.
+MPM). Results are checkpointed after every replicate (a rerun with the same seed resumes) to
+benchmarks/results/pair_coverage_superpopulation.json (finite: pair_coverage.json, local:
+pair_coverage_local.json), and the md beside it.
 """
 
 from __future__ import annotations
@@ -56,6 +68,7 @@ import json
 import os
 import time
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import cheap_route  # noqa: E402  (benchmarks/ is the script's own folder)
@@ -80,9 +93,26 @@ OUT = ml.OUT
 CASE = "case1"
 TUNED = REPO / "rgns" / "models" / "endstate_tuned.pt"
 CACHE = OUT / "pair_coverage_cheap.npz"
-RESULT = OUT / "pair_coverage.json"
-REPORT = OUT / "pair_coverage.md"
+LOCAL = 32  # --population local: the real realizations nearest in cheap runout a member draws its residuals from
+POPULATIONS = {  # --population: its result files
+    "finite": (OUT / "pair_coverage.json", OUT / "pair_coverage.md"),
+    "super": (OUT / "pair_coverage_superpopulation.json", OUT / "pair_coverage_superpopulation.md"),
+    "local": (OUT / "pair_coverage_local.json", OUT / "pair_coverage_local.md"),
+}
 REAL = 128  # realizations 0-127 ran at 1 and 0.5 m on the GPU
+POPULATION_TEXT = {
+    "finite": "**Finite population**: each member keeps the residuals drawn for it once (population seed "
+    "in the json); the answers are this population's own, whose 1 % tail departs from its line-plus-residual "
+    "law by about one sampling SE of a 10,000-member quantile.",
+    "super": "**Superpopulation**: a replicate's N cheap members are drawn with replacement, and each pair's MPM "
+    "values are its member's fitted lines plus one real realization's residuals drawn afresh, so that every pair "
+    "is a new realization of the law the pipeline estimates; the answers are that law's, over every member with "
+    f"every one of the {REAL} real residuals (10,000 x {REAL} equally likely values).",
+    "local": "**Superpopulation with local residuals**: as the superpopulation, but each member draws its residuals "
+    "from the 32 real realizations nearest to it in cheap runout, so that their spread grows with the cheap value "
+    "as the real pairs' does (and any bend of the real relation off the line is kept); the pipeline's modelled "
+    "mesh step assumes one residual spread, so this population tests that assumption.",
+}
 METRICS = ml.METRICS
 COLUMNS = (*METRICS, "front_x_m", "rear_x_m")
 MODES = ("normal", "sabotage")
@@ -187,17 +217,44 @@ def synthesize(
     finite = cheap["ok"] & np.all([np.isfinite(cheap[key]) for key in COLUMNS], axis=0)
     low = {key: cheap[key][finite] for key in COLUMNS}
     donor = np.random.default_rng(seed).integers(0, REAL, len(low["runout_m"]))
-    population: dict[str, dict[str, np.ndarray]] = {"cheap": low, "0.5": {}, "1": {}}
+    population: dict[str, dict[str, Any]] = {"cheap": low, "0.5": {}, "1": {}, "lines": {"0.5": {}, "1": {}}}
     for key in METRICS:
         c = calibration[key]
         for level, row in (("0.5", 0), ("1", 1)):
             fitted = c[f"intercept_{level}"] + c[f"slope_{level}"] * low[key]
+            population["lines"][level][key] = fitted
             population[level][key] = fitted + c["residuals"][row][donor]
+    population["residuals"] = {key: calibration[key]["residuals"] for key in METRICS}
+    population["ends"] = {
+        level: {name: real[f"{name}_{level}"] for name in ("toe_x_m", "crest_x_m")} for level in ("0.5", "1")
+    }
     for level in ("0.5", "1"):
-        values = population[level]
-        values["front_x_m"] = real[f"toe_x_m_{level}"] + values["runout_m"]
-        values["rear_x_m"] = real[f"crest_x_m_{level}"] - values["influence_m"]
+        ends_at(population[level], population["ends"][level])
     return population
+
+
+def ends_at(values: dict[str, np.ndarray], ends: dict[str, float]) -> None:
+    """front_x_m and rear_x_m from the runout and the influence at a mesh's own toe and crest."""
+    values["front_x_m"] = ends["toe_x_m"] + values["runout_m"]
+    values["rear_x_m"] = ends["crest_x_m"] - values["influence_m"]
+
+
+def superpopulation(population: dict[str, Any], level: str, key: str) -> np.ndarray:
+    """Every member's fitted value with each residual it may draw (``population["donors"]``): the
+    superpopulation a member with a fresh residual is drawn from (members x donors values, equally likely)."""
+    row = 0 if level == "0.5" else 1
+    return (population["lines"][level][key][:, None] + population["residuals"][key][row][population["donors"]]).ravel()
+
+
+def donor_sets(population: dict[str, Any], real_cheap: np.ndarray, local: int | None) -> np.ndarray:
+    """Per member the real realizations whose residuals it may draw [members, k]: every one (k = REAL), or with
+    ``local`` the ``local`` nearest to it in cheap runout, so that the residuals' spread follows the cheap value
+    as the real pairs' does (sd 0.28 m below and 0.43 m above the median at 0.5 m)."""
+    size = len(population["cheap"]["runout_m"])
+    if local is None:
+        return np.tile(np.arange(REAL), (size, 1))
+    distance = np.abs(population["cheap"]["runout_m"][:, None] - real_cheap[None, :])
+    return np.argsort(distance, axis=1, kind="stable")[:, :local]
 
 
 def sabotaged(population: dict[str, dict[str, np.ndarray]], seed: int) -> dict[str, dict[str, np.ndarray]]:
@@ -206,10 +263,9 @@ def sabotaged(population: dict[str, dict[str, np.ndarray]], seed: int) -> dict[s
     return population | {"cheap": {key: values[order] for key, values in population["cheap"].items()}}
 
 
-def answers(population: dict[str, dict[str, np.ndarray]], settings: dict) -> dict[str, dict[str, float]]:
-    """The population's known answers per quantity: at 0.5 m and converged (the chain's target and the
-    quantile form), at the order's point value."""
-    half, one = population["0.5"]["runout_m"], population["1"]["runout_m"]
+def answers(half: np.ndarray, one: np.ndarray, settings: dict) -> dict[str, dict[str, float]]:
+    """The known answers per quantity of a population whose runouts at 0.5 m and 1 m are ``half`` and ``one``:
+    at 0.5 m and converged (the chain's target and the quantile form), at the order's point value."""
     order = float(settings["mesh_order"]["runout_m"][1])
     ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
     result = {
@@ -220,7 +276,7 @@ def answers(population: dict[str, dict[str, np.ndarray]], settings: dict) -> dic
         }
     }
     d_m = np.arange(0.0, half.max() + 2 * DISTANCE_STEP_M, DISTANCE_STEP_M)
-    exceedance = (half[:, None] > d_m).mean(axis=0)
+    exceedance = 1.0 - np.searchsorted(np.sort(half), d_m, side="right") / half.size  # share of half > d
     for p in QUANTITIES[1:]:
         level = 1.0 - float(p)
         q_half, q_one = (float(np.quantile(values, level, method="hazen")) for values in (half, one))
@@ -240,7 +296,9 @@ def tables(
     population: dict[str, dict[str, np.ndarray]], settings: dict, rng: np.random.Generator
 ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, dict]:
     """One replicate's cheap table (N members drawn with replacement, realizations 0 … N − 1), the pairs' plan
-    (rule paired_plan) and their rows at the accurate and the coarse mesh."""
+    (rule paired_plan) and their rows at the accurate and the coarse mesh: the members' own (a finite
+    population) or, with ``population["fresh"]``, their fitted values plus a real residual drawn afresh (the
+    superpopulation)."""
     size, big_n = len(population["cheap"]["runout_m"]), int(settings["realizations"])
     picks = rng.integers(0, size, big_n)
 
@@ -257,8 +315,21 @@ def tables(
         int(rng.integers(0, 2**31)),
     ).to_record()
     chosen = np.asarray(plan["indices"])
-    high, coarse = (table(level, picks[chosen], chosen) for level in ("0.5", "1"))
-    return low, high, coarse, plan
+    if not population["fresh"]:
+        high, coarse = (table(level, picks[chosen], chosen) for level in ("0.5", "1"))
+        return low, high, coarse, plan
+    allowed = population["donors"][picks[chosen]]  # each pair a new realization: its residuals drawn afresh
+    donors = allowed[np.arange(chosen.size), rng.integers(0, allowed.shape[1], chosen.size)]
+
+    def fresh(level: str) -> pd.DataFrame:
+        row = 0 if level == "0.5" else 1
+        values = {
+            k: population["lines"][level][k][picks[chosen]] + population["residuals"][k][row][donors] for k in METRICS
+        }
+        ends_at(values, population["ends"][level])
+        return pd.DataFrame({"index": chosen, "status": "ok"} | {k: values[k] for k in COLUMNS})
+
+    return low, fresh("0.5"), fresh("1"), plan
 
 
 class _Normal:
@@ -385,11 +456,11 @@ def check(population: dict, settings: dict, cost: dict[str, float], rng_seed: li
     return fast
 
 
-def checkpoint(result: dict) -> None:
-    """The results so far, written atomically."""
-    temporary = RESULT.with_suffix(".json.tmp")
+def checkpoint(result: dict, path: Path) -> None:
+    """The results so far, written atomically to ``path``."""
+    temporary = path.with_suffix(".json.tmp")
     temporary.write_text(json.dumps(result, indent=1) + "\n")
-    os.replace(temporary, RESULT)
+    os.replace(temporary, path)
 
 
 def verdict(interval: list[float | None], answer: float) -> str:
@@ -537,8 +608,8 @@ def accurate_table(mode: dict) -> list[str]:
     return lines
 
 
-def write_report(result: dict) -> None:
-    """The md from the json."""
+def write_report(result: dict, path: Path) -> None:
+    """The md from the json, to ``path``."""
     meta = result["meta"]
     lines = [
         "# Coverage of the default design: 10,000 cheap realizations, 32 random MPM pairs (case 1)",
@@ -549,6 +620,8 @@ def write_report(result: dict) -> None:
         f"residuals bootstrapped jointly (per member one real realization's residuals of every metric at both meshes) "
         f"from the {REAL} real triples of `benchmarks/results/mesh_levels_gpu` (realizations 0-{REAL - 1}). Method: the "
         "docstring of `benchmarks/pair_coverage.py`.",
+        "",
+        POPULATION_TEXT[meta.get("population_kind", "finite")],
         "",
         "Commands (one thread, `nice -n 19`, on a 2-core machine shared with a timed run):",
         "",
@@ -666,7 +739,7 @@ def write_report(result: dict) -> None:
     if result.get("findings"):
         lines += ["", "## What it says", "", *result["findings"]]
     lines.append("")
-    REPORT.write_text("\n".join(lines))
+    path.write_text("\n".join(lines))
 
 
 def prepare(args: argparse.Namespace) -> tuple[dict, dict, dict, dict]:
@@ -679,6 +752,8 @@ def prepare(args: argparse.Namespace) -> tuple[dict, dict, dict, dict]:
         assert np.allclose(cheap[key][:REAL], real[key][0], equal_nan=True), f"cheap {key} differs from cheap_route's"
     calibration = calibrate(real)
     population = synthesize(cheap, calibration, real, args.population_seed)
+    population["fresh"] = args.population != "finite"
+    population["donors"] = donor_sets(population, real["runout_m"][0], LOCAL if args.population == "local" else None)
     for key in METRICS:
         residuals = np.stack(
             [
@@ -691,7 +766,10 @@ def prepare(args: argparse.Namespace) -> tuple[dict, dict, dict, dict]:
             population["cheap"][key], population["0.5"][key], population["1"][key], residuals
         )
     cost = {"high_s": cpu_seconds(0.5), "low_s": cheap_s}
-    truth = answers(population, settings)
+    if population["fresh"]:
+        truth = answers(*(superpopulation(population, level, "runout_m") for level in ("0.5", "1")), settings)
+    else:
+        truth = answers(population["0.5"]["runout_m"], population["1"]["runout_m"], settings)
     size = len(population["cheap"]["runout_m"])
     runout = population["cheap"]["runout_m"]
     meta = {
@@ -708,6 +786,7 @@ def prepare(args: argparse.Namespace) -> tuple[dict, dict, dict, dict]:
         "population": size,
         "dropped": int(len(cheap["runout_m"]) - size),
         "population_seed": args.population_seed,
+        "population_kind": args.population,
         "cost": cost,
         "calibration": {key: {k: v for k, v in c.items() if k != "residuals"} for key, c in calibration.items()},
         "population_stats": {
@@ -732,17 +811,26 @@ def main() -> None:
     parser.add_argument("--sabotage", action="store_true", help="the cheap rows permuted across realizations")
     parser.add_argument("--minutes", type=float, default=None, help="stop starting replicates after this long")
     parser.add_argument("--report", action="store_true", help="only write the md from the json")
+    parser.add_argument(
+        "--population",
+        choices=sorted(POPULATIONS),
+        default="super",
+        help="super: each pair a new realization of the fitted line plus a real residual (the answers the "
+        "superpopulation's); local: the same with residuals from the real realizations nearest in cheap runout; "
+        "finite: the members' own residuals, drawn once (the answers the finite population's)",
+    )
     args = parser.parse_args()
+    result_path, report_path = POPULATIONS[args.population]
     if args.report:  # the summaries recomputed from the replicates, then the md
-        result = json.loads(RESULT.read_text())
+        result = json.loads(result_path.read_text())
         for name in MODES:
             if result.get(name, {}).get("replicates"):
                 mode = result[name]
                 mode["summary"] = summary(mode["replicates"], result["meta"]["answers"])
                 mode["allocation"] = allocation_summary(mode["replicates"], result["meta"])
-        checkpoint(result)
-        write_report(result)
-        print(REPORT.read_text())
+        checkpoint(result, result_path)
+        write_report(result, report_path)
+        print(report_path.read_text())
         return
     torch.set_num_threads(1)
     began = time.perf_counter()
@@ -750,12 +838,12 @@ def main() -> None:
     name = "sabotage" if args.sabotage else "normal"
     if args.sabotage:
         population = sabotaged(population, args.seed)  # the answers stand: the MPM values are the same
-    result = json.loads(RESULT.read_text()) if RESULT.exists() else {}
+    result = json.loads(result_path.read_text()) if result_path.exists() else {}
     if result.get("meta", {}).get("population_seed") not in (None, args.population_seed):
         result = {}  # another population: start over
     command = (
         f"OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --replicates {args.replicates} "
-        f"--seed {args.seed}" + (" --sabotage" if args.sabotage else "")
+        f"--seed {args.seed} --population {args.population}" + (" --sabotage" if args.sabotage else "")
     )
     commands = [c for c in result.get("meta", {}).get("commands", []) if ("--sabotage" in c) != args.sabotage]
     result["meta"] = meta | {"commands": sorted([*commands, command], key=lambda c: "--sabotage" in c)}
@@ -789,10 +877,10 @@ def main() -> None:
         mode["seconds_per_replicate"] = float(np.median(mode["seconds"]))
         mode["summary"] = summary(mode["replicates"], truth)
         mode["allocation"] = allocation_summary(mode["replicates"], result["meta"])
-        checkpoint(result)
+        checkpoint(result, result_path)
         print(f"{name}: replicate {number + 1} of {args.replicates}, {mode['seconds'][-1]:.1f} s", flush=True)
-    write_report(result)
-    print(REPORT.read_text())
+    write_report(result, report_path)
+    print(report_path.read_text())
 
 
 if __name__ == "__main__":

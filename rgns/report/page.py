@@ -254,7 +254,7 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
         line += (
             f". The mesh step of the {', '.join(thin)} rests on the cheap route's regressions beyond the {pairs} "
             "pairs (fewer than one expected beyond that probability): a model's extrapolation, its coverage "
-            "measured on a synthetic population only (benchmarks/results/pair_coverage.md)"
+            "measured on a synthetic population only (benchmarks/results/pair_coverage_superpopulation.md)"
             if thin
             else ""
         )
