@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 
+import matplotlib.figure
 import numpy as np
 import pytest
 from scipy import stats
@@ -224,3 +225,29 @@ def test_each_hazard_figure_writes_a_png(tmp_path):
     plot_zoning(vertices, affected, zone_levels(affected.probability), DEFAULT_THRESHOLDS, 80.0, 20.0, paths[2])
     for path in paths:
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_exceedance_figure_draws_each_metrics_own_curve_and_the_mean_field_where_given(tmp_path, monkeypatch):
+    """What the figure shows, read back from its axes: each metric on the axes titled with its name, its
+    empirical P(X > x) as the step line (floored at 1 / 2n on the log axis), the mean-field value as a
+    vertical line only where one is given."""
+    drawn = []
+    save = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(
+        matplotlib.figure.Figure,
+        "savefig",
+        lambda figure, *args, **kwargs: (drawn.append(figure), save(figure, *args, **kwargs))[1],
+    )
+    rng = np.random.default_rng(13)
+    values = {"influence distance I": rng.exponential(3.0, 200), "runout distance R": rng.exponential(8.0, 200)}
+    curves = {name: exceedance_curve(v) for name, v in values.items()}
+    distances = {name: exceedance_distances(v) for name, v in values.items()}
+    plot_exceedance(curves, distances, {"influence distance I": None, "runout distance R": 6.0}, tmp_path / "e.png")
+    (figure,) = drawn
+    for axis, (name, curve) in zip(figure.axes, curves.items(), strict=True):
+        assert axis.get_title() == name
+        step = next(line for line in axis.get_lines() if line.get_label().startswith("empirical"))
+        np.testing.assert_array_equal(step.get_xdata(), curve.x)
+        np.testing.assert_array_equal(step.get_ydata(), np.maximum(curve.probability, 1.0 / (2 * curve.n)))
+        mean_field = [line for line in axis.get_lines() if line.get_label() == "mean-field"]
+        assert [line.get_xdata()[0] for line in mean_field] == ([6.0] if name == "runout distance R" else [])
