@@ -74,7 +74,10 @@ def test_it_agrees_with_fresh_mpm_runs_of_slopes_it_never_trained_on(general, co
     50 x 14 m domain, and of a benched slope no training set drew: runout R² ≥ 0.85 and mean runout
     within 5 % of MPM's (the card, 64 each: R² 0.970 and 0.974, bias -1.7 % and +0.9 %; the first
     test-case model on the bench: +136 %; here, measured: 0.958 and 0.979, -2.9 % and +3.4 %), volume
-    within 10 % (card: -2.9 %, -3.1 %), influence within 15 % (card: -4.3 %, -1.2 %)."""
+    within 10 % (card: -2.9 %, -3.1 %), influence within 15 % (card: -4.3 %, -1.2 %); realization by realization
+    volume R² ≥ 0.85 and influence R² ≥ 0.6 (here: 0.943 and 0.741 on the site, 0.986 and 0.943 on the bench; the
+    card's influence on 64: 0.812 and 0.903), which a model whose I is right on average only (a constant: R² 0)
+    fails."""
     inputs = CaseInputs.from_config(config, case)
     indices = list(range(400, 424))
     mpm = run_realizations(inputs, indices, _settings(config, "mpm"))
@@ -86,9 +89,12 @@ def test_it_agrees_with_fresh_mpm_runs_of_slopes_it_never_trained_on(general, co
         predicted.mean() / truth.mean() - 1,
         model["volume_m2"].mean() / mpm["volume_m2"].mean() - 1,
         model["influence_m"].mean() / mpm["influence_m"].mean() - 1,
+        *(r_squared(mpm[key].to_numpy(float), model[key].to_numpy(float)) for key in ("volume_m2", "influence_m")),
     )
     assert r_squared(truth, predicted) >= 0.85
     assert abs(predicted.mean() / truth.mean() - 1) <= 0.05
     assert abs(model["volume_m2"].mean() / mpm["volume_m2"].mean() - 1) <= 0.10
     assert np.isfinite(model["influence_m"]).all()
     assert abs(model["influence_m"].mean() / mpm["influence_m"].mean() - 1) <= 0.15
+    assert r_squared(mpm["volume_m2"].to_numpy(float), model["volume_m2"].to_numpy(float)) >= 0.85
+    assert r_squared(mpm["influence_m"].to_numpy(float), model["influence_m"].to_numpy(float)) >= 0.6
