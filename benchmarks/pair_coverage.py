@@ -35,8 +35,7 @@ N − 1), draws the pairs as rule paired_plan does, and estimates exactly as rul
 (workflow/scripts/multifidelity.py → rgns.fidelity.outputs.write_multifidelity → ``best_estimate``: ``correct`` then
 ``mesh_extrapolation.converged``, the plan passed as the design; the bootstrap seed is the replicate number). It
 records per quantity the estimate, the interval at the order's point value (sampling alone: the converged
-mean's from ``rgns.fidelity.multilevel.extrapolated`` with the order's interval collapsed to its value, on the
-levels ``converged`` builds, the distances' ``interval_at_order``) and the report's interval (the envelope over
+mean's and the distances' ``interval_at_order`` as rule multifidelity records them) and the report's interval (the envelope over
 the order's interval), and the allocation ``correct`` gives (``rgns.fidelity.multifidelity.route``; costs: the
 0.5 m MPM's seconds per realization on one CPU thread, benchmarks/results/mesh_levels, and the tuned model's
 timed here). Coverage: the share of replicates whose interval holds the answer, with its binomial SE; an
@@ -80,10 +79,9 @@ from scipy import special, stats
 
 from rgns.config import load_config
 from rgns.fidelity import multifidelity
-from rgns.fidelity.mesh_extrapolation import nested_levels
 from rgns.fidelity.multifidelity import control_variate, distance_at, rearranged, regression_control_variate, route
-from rgns.fidelity.multilevel import extrapolated, richardson_step
-from rgns.fidelity.outputs import DISTANCE_STEP_M, best_estimate, correct, distance_grid, flattened, paired_rows
+from rgns.fidelity.multilevel import richardson_step
+from rgns.fidelity.outputs import DISTANCE_STEP_M, best_estimate, correct, distance_grid, paired_rows
 from rgns.fidelity.pair_design import design_pairs, row_strata
 from rgns.montecarlo.runs import CaseInputs, run_realizations
 from rgns.surrogates.endstate.model import load_model
@@ -411,22 +409,13 @@ def run_replicate(
         record = best_estimate(low, high, coarse, settings, cost, plan, seed, correct if full else runout_correction)
         chain = record["converged"]
         plain = record.get("route_applied") == "plain MPM"
-        if plain:  # the levels converged read: the paired MPM runs alone
-            low = flattened(low)
-        ratio = chain["ratio"]
-        order = float(settings["mesh_order"]["runout_m"][1])
-        fine, rough, cheap = nested_levels(low, high, coarse)
-        strata = row_strata(plan, cheap["index"].tolist(), len(fine))  # as converged weighs them
-        levels = [t[["runout_m"]].to_numpy(float) for t in (fine, rough, cheap)]
-        at_order = extrapolated(levels, ratio, order, (order, order), settings["confidence"], seed=seed, strata=strata)
     finally:
         fast_normal(False)
     mean = chain["means"]["runout_m"]
-    assert abs(float(at_order.estimate[0]) - mean["estimate"]) < 1e-9
     found: dict[str, Any] = {
         "mean": {
             "estimate": mean["estimate"],
-            "at_order": [float(at_order.lower[0]), float(at_order.upper[0])],
+            "at_order": mean["interval_at_order"],
             "report": [mean["lower"], mean["upper"]],
             "accurate": mean["accurate"],
             "accurate_interval": [mean["accurate_lower"], mean["accurate_upper"]],
