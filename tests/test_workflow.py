@@ -226,6 +226,13 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     assert (paired["n_particles"] == 4 * 120).all()
     multifidelity = json.loads((results / "report" / "case1" / "multifidelity.json").read_text())
     assert (multifidelity["n_paired"], multifidelity["n_low"]) == (2, 6)
+    # two pairs cannot show that the cheap route pays (its correlation's lower bound is 0): the allocation says
+    # plain MPM, the run applies it, and the page's top says so and why
+    assert multifidelity["allocation"]["route"] == multifidelity["route_applied"] == "plain MPM"
+    assert (
+        "plain MPM Monte Carlo over the 2 paired realizations (the cheap route correlates"
+        in page.split("Configuration</h2>")[0]
+    )
     assert multifidelity["cost"]["high_s"] > multifidelity["cost"]["low_s"] > 0
     # and once more by the MPM at the Monte Carlo's 1 m mesh: the coarse level of the mesh extrapolation
     coarse = read_csv(results / "mc" / "case1" / "paired_coarse.csv")
