@@ -29,7 +29,6 @@ class Route:
     model: str | None  # the trained model file the simulator loads (none for the MPM)
     drawn_as_accurate: bool  # the field on the Monte Carlo's grid, as the accurate mesh draws it
     gated: bool  # the validation gate may stop it (validation.acceptance.on_failure: stop)
-    purpose: str  # one line: why it runs
 
     def case_inputs(self, config: dict[str, Any], case: str) -> CaseInputs:
         """What drawing one of its realizations of ``case`` depends on."""
@@ -65,6 +64,7 @@ def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
     model = None if simulator == "mpm" else f"results/model/{simulator}.pt"
     gated = model is not None and config["validation"]["acceptance"]["on_failure"] == "stop"
     routes = [
+        # every Monte Carlo realization, by the Monte Carlo's simulator
         Route(
             "realizations",
             simulator,
@@ -74,8 +74,8 @@ def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
             model,
             False,
             gated,
-            "every Monte Carlo realization, by the Monte Carlo's simulator",
         ),
+        # the deterministic mean-field realization, the reference of the report
         Route(
             "mean_field",
             simulator,
@@ -85,11 +85,11 @@ def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
             model,
             False,
             gated,
-            "the deterministic mean-field realization, the reference of the report",
         ),
     ]
     if fidelity["paired"]:
         routes.append(
+            # the pairs at the accurate mesh: what the correction makes the estimate exact for
             Route(
                 "paired",
                 "mpm",
@@ -99,11 +99,11 @@ def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
                 None,
                 True,
                 False,
-                "the pairs at the accurate mesh: what the correction makes the estimate exact for",
             )
         )
         if fidelity["mesh_order"]:
             routes.append(
+                # the pairs at the Monte Carlo's mesh: the coarser end of the step to the converged mesh
                 Route(
                     "paired_coarse",
                     "mpm",
@@ -113,11 +113,11 @@ def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
                     None,
                     True,
                     False,
-                    "the pairs at the Monte Carlo's mesh: the coarser end of the step to the converged mesh",
                 )
             )
         if fidelity["cheap"] == "tuned":
             routes.append(
+                # every realization by the tuned end-state surrogate: the correction's control variate
                 Route(
                     "control",
                     "endstate",
@@ -127,7 +127,6 @@ def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
                     "results/model/endstate_tuned.pt",
                     False,
                     False,
-                    "every realization by the tuned end-state surrogate: the correction's control variate",
                 )
             )
     return {route.name: route for route in routes}
