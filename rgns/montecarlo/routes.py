@@ -8,7 +8,9 @@ pairs' routes; the Monte Carlo itself is run by ``montecarlo.simulator``.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from rgns.scene.realizations import MEAN_FIELD, CaseInputs, accurate_case_inputs
@@ -135,3 +137,11 @@ def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
 def chunk_share(listed: list[int], chunk: int, chunk_size: int) -> list[int]:
     """The realizations chunk ``chunk`` of a route runs: its ``chunk_size`` share of the listed ones."""
     return listed[chunk * chunk_size : (chunk + 1) * chunk_size]
+
+
+def route_realizations(listed: list[int] | None, plans: list[str]) -> list[int]:
+    """A route's realizations in chunk order: its own list, or (None) the one rule paired_plan chose, read
+    from its plan file (the only one in ``plans``)."""
+    if listed is not None:
+        return listed
+    return list(json.loads(Path(plans[0]).read_text())["indices"])

@@ -4,14 +4,12 @@ A route that runs the pairs takes its realizations from the list rule paired_pla
 simulator and validation.acceptance.on_failure stop, a case that failed the validation gate stops here with
 the failures named; otherwise the gate decides nothing."""
 
-import json
 import sys
-from pathlib import Path
 
 import torch
 
 from rgns.logsetup import log_to_file
-from rgns.montecarlo.routes import chunk_share
+from rgns.montecarlo.routes import chunk_share, route_realizations
 from rgns.montecarlo.runs import SURROGATES, CaseInputs, RunSettings, run_realizations
 from rgns.scene.realizations import FINISHED
 from rgns.surrogates.endstate.model import load_model
@@ -31,9 +29,7 @@ if snakemake.input.gate:
         print(f"rgns: {error}", file=sys.__stderr__, flush=True)
         sys.exit(1)
 listing = snakemake.params.listing
-listed = listing["listed"]
-if listed is None:  # a route of the pairs: the realizations paired_plan chose
-    listed = json.loads(Path(snakemake.input.plan[0]).read_text())["indices"]
+listed = route_realizations(listing["listed"], snakemake.input.plan)
 indices = chunk_share(listed, int(snakemake.wildcards.chunk), listing["chunk_size"])
 loaders = {
     "gns": lambda path: load_simulator(path, settings.device).eval(),

@@ -2,18 +2,14 @@
 checked to hold exactly its share (rgns.montecarlo.runs.collect_listed); a route of the pairs in the
 order rule paired_plan chose them."""
 
-import json
-from pathlib import Path
-
 from rgns.logsetup import log_to_file
+from rgns.montecarlo.routes import route_realizations
 from rgns.montecarlo.runs import collect_listed
 from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])
 listing = snakemake.params.listing
-listed = listing["listed"]
-if listed is None:
-    listed = json.loads(Path(snakemake.input.plan[0]).read_text())["indices"]
+listed = route_realizations(listing["listed"], snakemake.input.plan)
 table = collect_listed(snakemake.input.chunks, listed, listing["chunk_size"])
 write_csv(table, snakemake.output[0])
 log.info(
