@@ -246,8 +246,14 @@ def predicted_exceedance(
     thresholds: np.ndarray,
     weights: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The control variate of 1[h > t]: P(h > t | l) under h = a + b l + N(0, s²), a, b and s fitted by
+    """The control variate of 1[h > t]: P(h > t | l) under h = a + b l + N(0, s(l)²), a, b fitted by
     (design-weighted) least squares on the pairs finite at both fidelities, evaluated at every low-fidelity value.
+
+    The residual spread follows the cheap value, s(l) = s · shape(l) (:func:`spread_shape`), as the real pairs'
+    does (case 1's 128 pairs at 0.5 m: residual sd 0.28 m below the median cheap runout, 0.43 m above): one spread
+    for all put each mesh's modelled 1 % tail a tenth of a metre off where the spread differs from its average
+    (benchmarks/results/pair_coverage_local.md). s is the residuals' weighted root mean square, made unbiased for
+    the fit's 2 parameters (n / (n − 2) with equal weights) by the design's effective count.
 
     ``high_p``, ``low_p`` [..., n] (pairs; ``weights`` [..., n] their design weights, None: equal), ``low``
     [..., M] (where to evaluate), ``thresholds`` [T] → [..., M, T]. A non-finite low value (nothing moved)
@@ -265,14 +271,36 @@ def predicted_exceedance(
     var, cov = (w * dl * dl).sum(-1, keepdims=True), (w * dh * dl).sum(-1, keepdims=True)
     slope = np.divide(cov, var, out=np.zeros_like(cov), where=var > 1e-12)
     residual = np.where(finite, dh - slope * dl, 0.0)
-    # the weighted mean square of the residuals, made unbiased for the fit's 2 parameters (n / (n − 2) with
-    # equal weights) by the design's effective count
     scale = np.sqrt((w * residual**2).sum(-1, keepdims=True) * effective / np.maximum(effective - 2.0, 1.0))
     scale = np.maximum(scale, 1e-9 * (1.0 + np.sqrt(var / np.maximum(count, 1) * count)))
     predicted = mean_h + slope * (low - mean_l)  # [..., M]
-    smooth = stats.norm.cdf((predicted[..., None] - thresholds) / scale[..., None])
+    spread = scale * spread_shape(np.abs(residual), dl, w, low - mean_l)  # [..., M]
+    smooth = stats.norm.cdf((predicted[..., None] - thresholds) / spread[..., None])
     step = low[..., None] > thresholds
     return np.where(np.isfinite(low)[..., None], smooth, step)
+
+
+# the spread's shape is held within these multiples of its root mean square over the pairs: a line fitted to a
+# few tens of residuals' sizes must not reach zero (a step) or grow without bound beyond the pairs' range
+SHAPE_RANGE = (0.25, 4.0)
+
+
+def spread_shape(size: np.ndarray, dl: np.ndarray, w: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """How the residual spread varies with the cheap value: the design-weighted least-squares line of the
+    residuals' sizes ``size`` on the centred cheap values ``dl`` (both [..., n], zero where not finite; ``w``
+    their normalized weights), evaluated at the centred values ``at`` [..., M] and divided by its root mean
+    square over the pairs, so that s · shape keeps the fitted mean square; held within SHAPE_RANGE. The
+    line of |residual| on l is Glejser's (1969) model of a standard deviation linear in the regressor."""
+    mean_size = (w * size).sum(-1, keepdims=True)
+    var = (w * dl * dl).sum(-1, keepdims=True)
+    tilt = np.divide((w * size * dl).sum(-1, keepdims=True), var, out=np.zeros_like(var), where=var > 1e-12)
+    low, high = SHAPE_RANGE
+
+    def line(x: np.ndarray) -> np.ndarray:
+        return np.clip(mean_size + tilt * x, low * mean_size, high * mean_size)
+
+    rms = np.sqrt((w * line(dl) ** 2).sum(-1, keepdims=True))
+    return np.divide(line(at), rms, out=np.ones_like(at * rms), where=rms > 0)
 
 
 def binned(values: np.ndarray, bins: int) -> tuple[np.ndarray, np.ndarray]:
