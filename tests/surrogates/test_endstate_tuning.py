@@ -1,17 +1,22 @@
 """Tuning the end-state surrogate to the accurate MPM: coarse-graining the fine runs, the fine-tune,
-and what the shipped tuned model serves (its accuracy as a control variate:
-benchmarks/hifi_surrogate.py and every run's multi-fidelity report)."""
+what the shipped tuned model serves, and how well it correlates with accurate MPM runs it never saw (what the
+control variate needs; every run's multi-fidelity report measures it on that run's own pairs)."""
 
 from __future__ import annotations
 
 import copy
+import json
 from collections import defaultdict
 
 import numpy as np
+import pandas as pd
 import pytest
 import torch
+from conftest import REPO
 from test_endstate import LATTICE, SLOPE, synthetic_states
 
+from rgns.fidelity.multifidelity import correlation_lower_bound
+from rgns.montecarlo.runs import CaseInputs, RunSettings, run_realizations
 from rgns.scene.geometry import seed_particles
 from rgns.surrogates.endstate.model import EndStateModel, load_model
 from rgns.surrogates.endstate.train import examples, held_out_loss, normalization_of
@@ -92,14 +97,35 @@ def test_the_shipped_tuned_model_serves_the_default_config_and_refuses_other_cas
         check_tuned_serves(tuned_card, other)
 
 
-def test_the_shipped_tuned_model_agrees_with_its_held_out_accurate_runs_better_than_before(tuned_card):
-    """Its card, made by the pipeline: on the held-out 0.5 m runs (coarse-grained) the tuned model's R²
-    for R and V is at least 0.95 and above the untuned model's, and its loss is a fraction of the untuned."""
-    rows = {(row["model"], row["metric"]): row for row in tuned_card["agreement"]}
-    assert len(tuned_card["agreement"]) == 6 and rows[("after", "runout")]["n"] >= 16
-    for metric in ("runout", "volume"):
-        assert rows[("after", metric)]["r2"] >= 0.95
-        assert rows[("after", metric)]["r2"] > rows[("before", metric)]["r2"]
-    assert tuned_card["evaluation"]["valid_loss"] < 0.2 * tuned_card["before"]["valid_loss"]
-    model = load_model(MODELS / "endstate_tuned.pt")
-    assert model.lattice == load_model(MODELS / "endstate.pt").lattice
+# case 1's realizations 64-127 of the default seed, run by the embedded MPM at 0.5 m on a GPU
+# (benchmarks/mesh_levels.py): no tuning or model choice touched them (benchmarks/cheap_route.py's docstring)
+RUNS = REPO / "benchmarks" / "results" / "mesh_levels_gpu" / "case1"
+UNTOUCHED = range(64, 128)
+
+
+def test_the_shipped_tuned_model_correlates_with_untouched_accurate_mpm_runs_better_than_before(default_config):
+    """The tuned model run as the Monte Carlo runs it, against 64 accurate MPM runs no choice touched: its runout
+    and volume correlate with them at 0.97 or more (the lower 95 % bound on 64 pairs), what the control variate
+    needs, and its runout better than the untuned model's (measured 0.985 against 0.945)."""
+    torch.set_num_threads(1)
+    inputs = CaseInputs.from_config(default_config, "case1")
+    section = copy.deepcopy(default_config["montecarlo"]) | {"simulator": "endstate"}
+    settings = RunSettings.from_params(
+        {"montecarlo": section, "mpm": default_config["mpm"], "metrics": default_config["metrics"]}
+    )
+    accurate, same_mesh = (
+        pd.DataFrame([json.loads((RUNS / cell / f"{i:04d}.json").read_text()) for i in UNTOUCHED])
+        for cell in ("h0.5", "h1")
+    )
+    correlation = {}
+    for name in ("endstate_tuned", "endstate"):
+        table = run_realizations(inputs, list(UNTOUCHED), settings, load_model(MODELS / f"{name}.pt"))
+        assert (table["status"] == "ok").all()
+        assert np.allclose(table["friction_mean_deg"], same_mesh["friction_mean_deg"]), "not the MPM's realizations"
+        for metric in ("runout_m", "volume_m2"):
+            correlation[name, metric] = float(np.corrcoef(table[metric], accurate[metric])[0, 1])
+    print(correlation)
+    for metric in ("runout_m", "volume_m2"):
+        assert correlation_lower_bound(correlation["endstate_tuned", metric], len(UNTOUCHED)) >= 0.97
+    assert correlation["endstate_tuned", "runout_m"] > correlation["endstate", "runout_m"]
+    assert load_model(MODELS / "endstate_tuned.pt").lattice == load_model(MODELS / "endstate.pt").lattice
