@@ -1,5 +1,5 @@
-"""The GNS shipped with the package: it serves the default config, keeps standing slopes standing,
-and gives the same Monte Carlo table on every run."""
+"""The GNS shipped with the package: it serves the default config, keeps standing slopes standing, carries
+failing ones on after the hand-over, and gives the same Monte Carlo table on every run."""
 
 from __future__ import annotations
 
@@ -55,6 +55,25 @@ def test_a_slope_mpm_leaves_standing_stays_put_in_the_shipped_gns(shipped):
     assert gns["runout_m"].iloc[0] == 0.0 and gns["volume_m2"].iloc[0] == 0.0 and gns["influence_m"].iloc[0] == 0.0
 
 
+def test_the_shipped_gns_carries_a_failing_slope_on_from_the_hand_over(shipped):
+    """Case 1's realizations 0-3 (the default slope, which fails): after the MPM's 2 s hand-over the GNS moves
+    each slide on by more than 1 m, its mean runout gain is at least half the MPM's (measured 0.62: the GNS
+    still falls short of the paper's Table 3, its card says by how much) and each sliding volume is within 20 %
+    of the MPM's. A model that predicts no motion keeps the hand-over's state and fails all three."""
+    inputs = CaseInputs.from_config(DEFAULT, "case1")
+    realizations = [0, 1, 2, 3]
+    warmup = DEFAULT["montecarlo"]["rollout"]["warmup_s"]
+    mpm = run_realizations(inputs, realizations, _settings(DEFAULT, "mpm"))
+    hand_over = run_realizations(inputs, realizations, _settings(DEFAULT, "mpm", duration_s=warmup))
+    gns = run_realizations(inputs, realizations, _settings(DEFAULT, "gns"), shipped)
+    print(pd.concat({"mpm": mpm, "hand_over": hand_over, "gns": gns})[["runout_m", "volume_m2", "influence_m"]])
+    assert (gns["status"] == "ok").all() and (mpm["status"] == "ok").all()
+    gained, mpm_gained = gns["runout_m"] - hand_over["runout_m"], mpm["runout_m"] - hand_over["runout_m"]
+    assert (gained > 1.0).all()
+    assert gained.mean() >= 0.5 * mpm_gained.mean()
+    assert ((gns["volume_m2"] - mpm["volume_m2"]).abs() <= 0.2 * mpm["volume_m2"]).all()
+
+
 def test_two_monte_carlo_runs_with_the_shipped_model_give_identical_tables(shipped):
     inputs = CaseInputs.from_config(DEFAULT, "case1")
     settings = _settings(DEFAULT, "gns", duration_s=3.0)
@@ -74,4 +93,3 @@ def test_the_model_card_says_what_the_model_serves_and_how_far_it_trained(tmp_pa
     card = read_card()
     assert "`domain.length_m`: 80.0" in text and f"kept: step {card['selected_step']}" in text
     assert "## Validation against fresh MPM runs of the test cases" in text and "| case1 | runout |" in text
-    assert card["kept_validation"]["valid_one_step_loss"] < card["kept_validation"]["valid_mean_predictor_loss"] / 4
