@@ -65,6 +65,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import subprocess
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -673,7 +674,8 @@ def write_report(result: dict, path: Path) -> None:
         title = "Normal" if mode_name == "normal" else "Sabotage: the cheap rows permuted across realizations"
         lines += [
             "",
-            f"## {title}: {len(mode['replicates'])} replicates (seed {mode['seed']})",
+            f"## {title}: {len(mode['replicates'])} replicates (seed {mode['seed']}, commit "
+            f"{', '.join(mode.get('commits', ['not recorded']))})",
             "",
             f"Wall seconds per replicate on one thread: median {np.median(mode['seconds']):.1f}, mean "
             f"{np.mean(mode['seconds']):.1f} "
@@ -839,6 +841,8 @@ def main() -> None:
     mode = result.get(name, {})
     if mode.get("seed") != args.seed:
         mode = {"seed": args.seed, "replicates": [], "seconds": []}
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True)
+    mode["commits"] = sorted({*mode.get("commits", []), head.stdout.strip()})  # the code each part ran
     result[name] = mode
     print(
         f"{name}: {len(mode['replicates'])} replicates done before; setup {time.perf_counter() - began:.0f} s",
