@@ -164,7 +164,8 @@ def render_card(card: dict[str, Any], validation_markdown: str | None = None) ->
         f"* kept model on {card['config']['gns'].get('validation_windows', 128)} fixed held-out windows: one-step "
         f"loss {kept['valid_one_step_loss']:.4g} against the mean predictor's "
         f"{kept['valid_mean_predictor_loss']:.4g} ({ratio:.2f} of it); mean |R error| over held-out rollouts "
-        f"{kept['valid_runout_error_m']:.2f} m",
+        f"{kept['valid_runout_error_m']:.2f} m (the selection score: the best of the checkpoints compared, so biased "
+        "low; the validation below, on fresh MPM runs, is the model's measure)",
         f"* last validation (step {card['steps']}): one-step loss {last['valid_one_step_loss']:.4g}, mean |R error| "
         f"{last['valid_runout_error_m']:.2f} m",
         *(f"* {note}" for note in card.get("notes", [])),
