@@ -13,7 +13,7 @@ from conftest import REPO
 from rgns.config import load_config
 from rgns.montecarlo.runs import RunSettings, run_realizations
 from rgns.scene.realizations import CaseInputs
-from rgns.surrogates.endstate.card import check_serves, outside_ranges
+from rgns.surrogates.endstate.card import check_serves, distribution_of, outside_ranges
 from rgns.surrogates.endstate.model import load_model
 from rgns.surrogates.shipped import MODELS, ShippedModelError, read_card
 from rgns.surrogates.validation import r_squared
@@ -65,6 +65,18 @@ def test_a_case_outside_the_training_ranges_is_named_for_the_gate():
         "config key 'sets.case1[0].correlation_length_y_m' = 0.5 is outside the end-state surrogate's training "
         "range [2, 10]: its validation gate decides",
     ]
+
+
+def test_its_card_says_which_validation_sets_lie_in_its_training_distribution():
+    """A set whose family it never trained on, or whose field leaves the trained ranges, is out of distribution."""
+    assert distribution_of(CARD, "case1").startswith("in distribution")
+    assert distribution_of(CARD, "ood_bench").startswith("OUT OF distribution (family never trained on")
+    assert "field outside the trained ranges (correlation_length_x_m" in distribution_of(CARD, "ood_field")
+    card = copy.deepcopy(CARD)
+    card["config"]["sets"]["case1"][0]["friction_mean_deg"] = 50.0
+    assert distribution_of(card, "case1") == (
+        "OUT OF distribution (family trained on, field outside the trained ranges (friction_mean_deg))"
+    )
 
 
 @pytest.mark.parametrize("config, case", [(SITE, "hillside"), (PRETRAIN, "ood_bench")])

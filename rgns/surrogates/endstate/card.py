@@ -204,9 +204,38 @@ def _validation_source(card: dict[str, Any]) -> list[str]:
     return [
         f"{section['realizations']} realizations per set drawn from seed {section['data_seed']} "
         f"(`endstate.validation.data_seed`), run by the embedded MPM; R², NRMSE and bias with bootstrap 95 % "
-        f"intervals over realizations{trained}.",
+        f"intervals over realizations{trained}. "
+        + (
+            f"The training data's seed is {card['config']['endstate']['data_seed']}: none of these trained it."
+            if section["data_seed"] != card["config"]["endstate"]["data_seed"]
+            else "**The training data's seed: these realizations may have trained it.**"
+        ),
+        "",
+        *(f"* {name}: {distribution_of(card, name)}" for name in section["sets"]),
         "",
     ]
+
+
+def distribution_of(card: dict[str, Any], name: str) -> str:
+    """Whether a validation set lies in the training distribution: its geometry family trained on or not, and its
+    field statistics within the trained ranges or not."""
+    sets = card["config"]["sets"]
+    trained = {group["family"] for case in card["cases"] for group in sets[case]}
+    groups = sets[name]
+    family = "family trained on" if all(g["family"] in trained for g in groups) else "family never trained on"
+    ranges = card["ranges"]["field"]
+    outside = sorted(
+        {
+            key
+            for g in groups
+            for key in FIELD_RANGE_KEYS
+            for value in (g[key] if isinstance(g[key], list) else [g[key]])
+            if not ranges[key][0] <= value <= ranges[key][1]
+        }
+    )
+    field = f"field outside the trained ranges ({', '.join(outside)})" if outside else "field within the trained ranges"
+    inside = family == "family trained on" and not outside
+    return f"{'in' if inside else 'OUT OF'} distribution ({family}, {field})"
 
 
 def _hardware(config: dict[str, Any]) -> str:
