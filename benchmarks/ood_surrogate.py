@@ -11,13 +11,20 @@ pipeline's rule endstate_ood does before carding a model. This script runs the m
 same slopes and writes, per set and metric, R², NRMSE, bias and relative bias with bootstrap 95 %
 intervals over realizations, and the failed/stood confusion (``--output``.{json,md}); with
 ``--compare`` a second model (e.g. the previous shipped one) on the same slopes. It also times the
-model and the MPM per realization, one thread each, side by side.
+model and the MPM per realization, one thread each, side by side. ``--simulate`` runs the end states that
+``--data`` lacks here (one thread, chunks of 16), ``--data-seed`` draws them from another seed: e.g. the test-case
+model's card on realizations nothing touched,
+
+    python benchmarks/ood_surrogate.py --config config/config.yaml --data work/untouched --simulate \
+        --data-seed 1618033988 --sets case1 case2 case3 case4 --model rgns/models/endstate.pt \
+        --time-realizations 0 --output benchmarks/results/endstate_untouched
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import time
 from pathlib import Path
 
@@ -27,7 +34,7 @@ import torch
 from rgns.config import load_config
 from rgns.engines.metrics import MetricSettings
 from rgns.scene.realizations import CaseInputs
-from rgns.surrogates.endstate.data import read_end_states, simulate_end_states
+from rgns.surrogates.endstate.data import read_end_states, simulate_end_states, write_end_states
 from rgns.surrogates.endstate.evaluate import agreement_table, markdown_table
 from rgns.surrogates.endstate.model import load_model
 from rgns.trajectories import frame_count
@@ -46,6 +53,26 @@ def evaluate(model_path: str, config: dict, data: Path, sets: list[str], realiza
         for name in sets
     }
     return agreement_table(load_model(model_path), chosen, MetricSettings(**config["metrics"]))
+
+
+def simulate_missing(config: dict, data: Path, sets: list[str], realizations: int, chunk: int = 16) -> None:
+    """The MPM end states of every set's first ``realizations`` that ``data`` lacks, written there in chunks as
+    the pipeline's rule endstate_validation_data writes them (a re-run reuses them)."""
+    seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
+    frames = frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])
+    for name in sets:
+        inputs = CaseInputs.from_config(seeded, name)
+        for k, first in enumerate(range(0, realizations, chunk)):
+            path = data / name / f"chunk_{k:03d}.h5"
+            if path.exists():
+                continue
+            path.parent.mkdir(parents=True, exist_ok=True)
+            began = time.perf_counter()
+            states, statuses = simulate_end_states(
+                inputs, list(range(first, min(first + chunk, realizations))), config["mpm"], frames
+            )
+            write_end_states(path, states, statuses)
+            print(f"{name}: {path.name} in {time.perf_counter() - began:.0f} s", flush=True)
 
 
 def cost_per_realization(model_path: str, config: dict, case: str, count: int) -> dict[str, float]:
@@ -81,16 +108,28 @@ def main() -> None:
     parser.add_argument("--realizations", type=int, default=64)
     parser.add_argument("--time-realizations", type=int, default=8, help="case-1 realizations timed (0: none)")
     parser.add_argument("--output", default=str(REPO / "benchmarks" / "results" / "ood_surrogate"))
+    parser.add_argument("--data-seed", type=int, help="in place of the config's endstate.validation.data_seed")
+    parser.add_argument("--simulate", action="store_true", help="run the MPM end states --data lacks (one thread)")
     args = parser.parse_args()
     config = load_config(args.config)
+    if args.data_seed is not None:
+        config["endstate"]["validation"]["data_seed"] = args.data_seed
     sets = args.sets or config["endstate"]["validation"]["sets"]
+    if args.simulate:
+        torch.set_num_threads(1)
+        simulate_missing(config, Path(args.data), sets, args.realizations)
     result = {
         "command": "python benchmarks/ood_surrogate.py "
         + " ".join(
-            f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items() if v is not None and k not in ("output",)
+            f"--{k.replace('_', '-')}" + ("" if v is True else f" {' '.join(v) if isinstance(v, list) else v}")
+            for k, v in vars(args).items()
+            if v not in (None, False) and k != "output"
         ),
         "config": args.config,
         "data_seed": config["endstate"]["validation"]["data_seed"],
+        "commit": subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True
+        ).stdout.strip(),
     }
     tables = {"model": evaluate(args.model, config, Path(args.data), sets, args.realizations)}
     if args.compare:
