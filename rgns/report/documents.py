@@ -1,0 +1,240 @@
+"""Figures in the repository's documents, rendered from the committed result files that measured them.
+
+A document marks a rendered passage with ``<!-- rendered: NAME -->`` … ``<!-- end rendered -->``; NAME is one of
+:data:`RENDERERS`, which reads its result file(s) under ``benchmarks/results`` and writes the passage. Each result
+file records the command and the commit that made it, and the passage says both. ``python -m
+rgns.report.documents`` rewrites every marked passage; ``--check`` lists those that differ from their rendering
+(tests/test_documents.py runs it), so a figure edited by hand, or a result re-measured without its documents,
+fails the tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[2]
+RESULTS = REPO / "benchmarks" / "results"
+BLOCK = re.compile(r"(<!-- rendered: (?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- end rendered -->)", re.DOTALL)
+# the documents that may hold rendered passages
+DOCUMENTS = ("README.md", "docs/*.md", "rgns/models/*.md")
+# issue 42's measurement of the default before its route changed (256 realizations gated to the MPM, 16 pairs)
+BEFORE_SECONDS = 23 * 60 + 57
+BEFORE_HALF_WIDTH = {"0.1": 2.1, "0.01": 3.3}  # the whole interval's
+BEFORE_AT_ORDER = {"0.1": 1.3, "0.01": 2.4}  # its sampling part at the order's value
+
+
+class DocumentError(ValueError):
+    """A rendered passage that names no renderer, or a result file that lacks what a passage needs."""
+
+
+def result(name: str) -> dict[str, Any]:
+    """A committed result file, checked to record its command and commit."""
+    path = RESULTS / name
+    shown = path.relative_to(REPO) if path.is_relative_to(REPO) else path
+    if not path.exists():
+        raise DocumentError(f"{shown}: no such result file")
+    record = json.loads(path.read_text())
+    made = [record, *(part for part in record.values() if isinstance(part, dict))]
+    for keys in (("commit", "commits"), ("command", "commands")):
+        if not any(part.get(key) for part in made for key in keys):
+            raise DocumentError(f"{shown}: records no {' or '.join(keys)}")
+    return record
+
+
+def minutes(seconds: float) -> str:
+    whole = round(seconds)
+    return f"{whole // 60} min {whole % 60:02d} s"
+
+
+def ends(entry: list[float | None], digits: int = 2) -> str:
+    """'v m [lo, hi]' of [value, lower, upper] (an open end: 'open')."""
+    value, lower, upper = (("open" if x is None else f"{x:.{digits}f}") for x in entry)
+    return f"{value} m [{lower}, {upper}]"
+
+
+def r2(entry: dict[str, Any]) -> str:
+    value, lower, upper = entry["r2"]
+    return f"{value:.3f} [{lower:.3f}, {upper:.3f}]"
+
+
+def half(entry: list[float | None]) -> float:
+    lower, upper = entry[-2], entry[-1]
+    return float("inf") if lower is None or upper is None else (upper - lower) / 2.0
+
+
+def run_lines(record: dict[str, Any], case: str) -> list[str]:
+    """What one fresh run measured, and the best estimate and evidence of one of its cases."""
+    head = record["cases"][case]
+    distances = head["distances"]["runout_m"]
+    at_order = head["distances_at_order"]["runout_m"]
+    probabilities = list(distances)
+    cheap, simulator = head["cheap_validation"], head["simulator_validation"]
+    converged = head["converged_at"]
+    load = record["load_before"][0]
+    lines = [
+        f"Measured by `{record['command']}` at {record['commit']} ({record['date']}): a fresh clone, "
+        f"`{record['run']}` after the README's install ({record['install_s']:.0f} s, excluded), "
+        f"{record['machine']}, load average {load:.2f} before it: **{minutes(record['seconds'])}**, peak memory "
+        f"{record['peak_memory_gb']:.2f} GB (the largest process).",
+        f"`{case}`: {head['n_realizations']:,} realizations by the learned simulator, {head['n_pairs']} MPM pairs; "
+        f"the best estimate carried to the converged mesh (95 % intervals): mean runout "
+        f"{ends(head['means']['runout_m'])}; R exceeded with P {' / '.join(probabilities)}: "
+        + " / ".join(ends(distances[p]) for p in probabilities)
+        + " (the sampling parts at the order's value: "
+        + " / ".join(f"[{at_order[p][0]:.2f}, {at_order[p][1]:.2f}]" for p in probabilities)
+        + ").",
+        f"The pairs' validation: the cheap route ({head['cheap_route']}) against the accurate MPM, runout R² "
+        f"{r2(cheap['runout_m'])} (bias {cheap['runout_m']['bias'][0]:+.2f} m)"
+        + (
+            f"; the Monte Carlo's simulator against the Monte Carlo's mesh, runout R² {r2(simulator['runout_m'])}, "
+            f"volume {r2(simulator['volume_m2'])}, influence {r2(simulator['influence_m'])}"
+            if simulator
+            else ""
+        )
+        + ".",
+        "The running mean and variance converge (the paper's rule) at n = "
+        + " and ".join(f"{n:,} ({name})" for name, n in converged.items())
+        + f". The allocation: {head['allocation']['reason']}.",
+    ]
+    return lines
+
+
+def default_run() -> str:
+    """README: the default config's fresh-clone run, its headline and how it compares with the old default."""
+    record = result("fresh_run_default.json")
+    case = next(iter(record["cases"]))
+    head = record["cases"][case]
+    lines = run_lines(record, case)
+    widths = {p: half(head["distances"]["runout_m"][p]) for p in ("0.1", "0.01")}
+    sampling = {p: half(head["distances_at_order"]["runout_m"][p]) for p in ("0.1", "0.01")}
+    narrower = all(widths[p] < BEFORE_HALF_WIDTH[p] and sampling[p] < BEFORE_AT_ORDER[p] for p in widths)
+    lines.append(
+        f"The half-widths of R at P 0.1 and 0.01, {widths['0.1']:.2f} and {widths['0.01']:.2f} m (their sampling "
+        f"parts {sampling['0.1']:.2f} and {sampling['0.01']:.2f} m), are "
+        + ("below" if narrower else "**not all below**")
+        + f" the previous default's (256 realizations gated to the MPM, 16 pairs, {minutes(BEFORE_SECONDS)}: "
+        f"{BEFORE_HALF_WIDTH['0.1']} and {BEFORE_HALF_WIDTH['0.01']} m, sampling parts "
+        f"{BEFORE_AT_ORDER['0.1']} and {BEFORE_AT_ORDER['0.01']} m)."
+    )
+    return " ".join(lines)
+
+
+def site_run() -> str:
+    """docs/site.md: the example site's fresh-clone run and its headline."""
+    record = result("fresh_run_site.json")
+    return " ".join(run_lines(record, next(iter(record["cases"]))))
+
+
+def coverage_row(label: str, record: dict[str, Any]) -> str:
+    """One population's coverage of the converged answer: the sampling interval, and the report's."""
+    summary = record["normal"]["summary"]
+    cells = []
+    for key in ("mean", "0.5", "0.1", "0.01"):
+        sampling, report = summary[key]["converged"]["at_order"], summary[key]["converged"]["report"]
+        cells.append(
+            f"{100 * sampling['coverage']:.1f} % ({sampling['below']} / {sampling['above']})"
+            + ("" if sampling["within_3se"] else " **outside 3 SE**")
+            + f"; {100 * report['coverage']:.1f} %"
+        )
+    normal = record["normal"]
+    return f"| {label} ({len(normal['replicates'])}, seed {normal['seed']}) | " + " | ".join(cells) + " |"
+
+
+def pair_coverage() -> str:
+    """README: how often the default design's intervals cover the converged answer, per synthetic population."""
+    populations = {
+        "every pair a new realization of the real pairs' law": "pair_coverage_superpopulation.json",
+        "residual spread growing with the cheap runout, as the real pairs'": "pair_coverage_local.json",
+    }
+    records = {label: result(name) for label, name in populations.items()}
+    commits = sorted({commit for record in records.values() for commit in record["normal"].get("commits", [])})
+    lines = [
+        "| population (replicates, seed) | mean runout | R at P 0.5 | R at P 0.1 | R at P 0.01 |",
+        "|---|---|---|---|---|",
+        *(coverage_row(label, record) for label, record in records.items()),
+        "",
+        "Each cell: the sampling interval's coverage of the converged answer (misses below / above), then the "
+        f"report's interval's; 3 SE of 95 % is ±4.6 points on 200 replicates. Made at {', '.join(commits)} by "
+        + "; ".join(f"`{record['meta']['commands'][0]}`" for record in records.values())
+        + ".",
+    ]
+    return "\n".join(lines)
+
+
+def endstate_untouched() -> str:
+    """The test-case end-state model's card: its agreement with MPM runs of the test cases no choice touched."""
+    import pandas as pd
+
+    from rgns.surrogates.endstate.evaluate import markdown_table
+
+    record = result("endstate_untouched.json")
+    return "\n".join(
+        [
+            f"{record['model'][0]['n']} realizations per test case drawn from seed {record['data_seed']}, which no "
+            f"training or choice of this model touched, run by the embedded MPM at 1 m (made at {record['commit']} by "
+            f"`{record['command']}`; `benchmarks/results/endstate_untouched.md`). In distribution: the test cases' "
+            "own families and fields, fresh realizations.",
+            "",
+            markdown_table(pd.DataFrame(record["model"])).strip(),
+        ]
+    )
+
+
+RENDERERS: dict[str, Callable[[], str]] = {
+    "endstate-untouched": endstate_untouched,
+    "default-run": default_run,
+    "site-run": site_run,
+    "pair-coverage": pair_coverage,
+}
+
+
+def documents() -> list[Path]:
+    return sorted({path for pattern in DOCUMENTS for path in REPO.glob(pattern)})
+
+
+def rendered(text: str, where: str) -> str:
+    """``text`` with every marked passage replaced by its rendering."""
+
+    def replace(match: re.Match[str]) -> str:
+        name = match["name"]
+        if name not in RENDERERS:
+            raise DocumentError(f"{where}: rendered passage {name!r} has no renderer (known: {sorted(RENDERERS)})")
+        return f"{match[1]}{RENDERERS[name]().rstrip()}\n{match[4]}"
+
+    return BLOCK.sub(replace, text)
+
+
+def stale(paths: list[Path] | None = None) -> list[Path]:
+    """The documents (``paths``; None: every one that may hold rendered passages) whose marked passages differ
+    from their rendering."""
+    return [path for path in paths or documents() if (text := path.read_text()) != rendered(text, str(path))]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--check", action="store_true", help="list the documents that differ; write nothing")
+    args = parser.parse_args(argv)
+    if args.check:
+        differing = stale()
+        for path in differing:
+            print(
+                f"{path}: a rendered passage differs from its result files (rewrite: python -m rgns.report.documents)"
+            )
+        return 1 if differing else 0
+    for path in documents():
+        text = path.read_text()
+        new = rendered(text, str(path))
+        if new != text:
+            path.write_text(new)
+            print(f"rewrote {path.relative_to(REPO)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
