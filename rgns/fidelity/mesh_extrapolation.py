@@ -81,7 +81,7 @@ def modelled_crossing(
     low_u_counts: np.ndarray | None = None,
 ) -> np.ndarray:
     """The distance at which the exceedance curve of the MPM at one mesh, as its regression on the cheap route
-    models it over every realization — the mean over all N of P(h > t | l) under h = a + b l + N(0, s²), fitted
+    models it over every realization — the mean over all N of P(h > t | l) under h = a + b l + N(0, s(l)²), fitted
     on the pairs ``high_p``, ``low_p`` [..., n] with design ``weights`` (rgns.fidelity.multifidelity.
     predicted_exceedance) — falls to each probability ``targets`` [P] → [..., P], by bisection within
     ``bracket`` (its lower end where the curve starts at most P; inf where it is still above P at the upper

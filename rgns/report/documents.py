@@ -1,8 +1,10 @@
 """Figures in the repository's documents, rendered from the committed result files that measured them.
 
-A document marks a rendered passage with ``<!-- rendered: NAME -->`` … ``<!-- end rendered -->``; NAME is one of
-:data:`RENDERERS`, which reads its result file(s) under ``benchmarks/results`` and writes the passage. Each result
-file records the command and the commit that made it, and the passage says both. ``python -m
+A document marks a rendered passage with ``<!-- rendered: NAME -->`` … ``<!-- end rendered -->`` (both indented
+alike, inside a list item); NAME is one of :data:`RENDERERS`, which reads its result file(s) under
+``benchmarks/results`` and writes the passage. Each result file records the command and the commit that made it,
+and the passage says both; a file made before results recorded their commit is read with ``legacy=True`` and its
+passage names the commit that last changed it instead, as such. ``python -m
 rgns.report.documents`` rewrites every marked passage; ``--check`` lists those that differ from their rendering
 (tests/test_documents.py runs it), so a figure edited by hand, or a result re-measured without its documents,
 fails the tests.
@@ -13,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -20,7 +23,10 @@ from typing import Any
 
 REPO = Path(__file__).resolve().parents[2]
 RESULTS = REPO / "benchmarks" / "results"
-BLOCK = re.compile(r"(<!-- rendered: (?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- end rendered -->)", re.DOTALL)
+BLOCK = re.compile(
+    r"^(?P<indent> *)<!-- rendered: (?P<name>[\w-]+) -->\n(?P<body>.*?)^(?P=indent)<!-- end rendered -->",
+    re.DOTALL | re.MULTILINE,
+)
 # the documents that may hold rendered passages
 DOCUMENTS = ("README.md", "docs/*.md", "rgns/models/*.md")
 # issue 42's measurement of the default before its route changed (256 realizations gated to the MPM, 16 pairs)
@@ -33,14 +39,21 @@ class DocumentError(ValueError):
     """A rendered passage that names no renderer, or a result file that lacks what a passage needs."""
 
 
-def result(name: str) -> dict[str, Any]:
-    """A committed result file, checked to record its command and commit."""
+def result(name: str, legacy: bool = False) -> dict[str, Any]:
+    """A committed result file, checked to record its command and commit. ``legacy``: a file made before results
+    recorded their commit gets ``"committed_in"``, the commit that last changed it (git), in place of one."""
     path = RESULTS / name
     shown = path.relative_to(REPO) if path.is_relative_to(REPO) else path
     if not path.exists():
         raise DocumentError(f"{shown}: no such result file")
     record = json.loads(path.read_text())
     made = [record, *(part for part in record.values() if isinstance(part, dict))]
+    if legacy and not any(part.get(key) for part in made for key in ("commit", "commits")):
+        log = subprocess.run(
+            ["git", "log", "-1", "--format=%h", "--", str(path)], cwd=REPO, capture_output=True, text=True
+        )
+        record["committed_in"] = log.stdout.strip() or "an uncommitted change"
+        return record
     for keys in (("commit", "commits"), ("command", "commands")):
         if not any(part.get(key) for part in made for key in keys):
             raise DocumentError(f"{shown}: records no {' or '.join(keys)}")
@@ -186,7 +199,56 @@ def endstate_untouched() -> str:
     )
 
 
+# the README's names of the out-of-distribution sets, in its order
+OOD_SETS = {
+    "ood_bench": "benched slope",
+    "ood_concave": "concave slope",
+    "hillside": "DEM section (`config/site.yaml`)",
+    "ood_field": "a field model outside the training draws",
+}
+
+
+def ood_table() -> str:
+    """README: the geometry-general surrogate's R² on sets it never trained on, and on the test cases."""
+    record = result("ood_surrogate.json", legacy=True)
+    rows = {(row["set"], row["metric"]): row for row in record["model"]}
+    metrics = ("runout", "volume", "influence")
+
+    def stood(name: str) -> str:
+        row = rows[name, "runout"]
+        standing = row["stood_both"] + row["failed_model_only"]  # the MPM left these standing
+        return f" ({standing} of {row['n']} stand)" if standing > row["n"] / 2 else ""
+
+    cases = [name for name in ("case1", "case2", "case3", "case4") if (name, "runout") in rows]
+    made = record.get("commit") or f"committed in {record['committed_in']}, which the file does not record"
+    return "\n".join(
+        [
+            "| set (its realizations never trained on) | runout R | volume V | influence I |",
+            "|---|---|---|---|",
+            *(
+                f"| {label}{stood(name)} | "
+                + " | ".join(
+                    f"{rows[name, m]['r2']:.3f} [{rows[name, m]['r2_low']:.3f}, {rows[name, m]['r2_high']:.3f}]"
+                    for m in metrics
+                )
+                + " |"
+                for name, label in OOD_SETS.items()
+                if (name, "runout") in rows
+            ),
+            "| test cases "
+            + " / ".join(c.removeprefix("case") for c in cases)
+            + " (their families, `long_slope` and `column`, are in the training, `config/pretrain_general.yaml`; "
+            "the rows above are not) | "
+            + " | ".join(" / ".join(f"{rows[c, m]['r2']:.3f}" for c in cases) for m in metrics)
+            + " |",
+            "",
+            f"Seed {record['data_seed']}; `{record['command']}` ({made}).",
+        ]
+    )
+
+
 RENDERERS: dict[str, Callable[[], str]] = {
+    "ood-table": ood_table,
     "endstate-untouched": endstate_untouched,
     "default-run": default_run,
     "site-run": site_run,
@@ -198,14 +260,18 @@ def documents() -> list[Path]:
     return sorted({path for pattern in DOCUMENTS for path in REPO.glob(pattern)})
 
 
-def rendered(text: str, where: str) -> str:
-    """``text`` with every marked passage replaced by its rendering."""
+def rendered(text: str, where: str, only: set[str] | None = None) -> str:
+    """``text`` with every marked passage (``only`` these names; None: all) replaced by its rendering."""
 
     def replace(match: re.Match[str]) -> str:
         name = match["name"]
         if name not in RENDERERS:
             raise DocumentError(f"{where}: rendered passage {name!r} has no renderer (known: {sorted(RENDERERS)})")
-        return f"{match[1]}{RENDERERS[name]().rstrip()}\n{match[4]}"
+        if only is not None and name not in only:
+            return match[0]
+        indent = match["indent"]
+        body = "\n".join(f"{indent}{line}" if line else "" for line in RENDERERS[name]().rstrip().split("\n"))
+        return f"{indent}<!-- rendered: {name} -->\n{body}\n{indent}<!-- end rendered -->"
 
     return BLOCK.sub(replace, text)
 
@@ -219,6 +285,7 @@ def stale(paths: list[Path] | None = None) -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--check", action="store_true", help="list the documents that differ; write nothing")
+    parser.add_argument("--only", nargs="+", choices=sorted(RENDERERS), help="rewrite only these passages")
     args = parser.parse_args(argv)
     if args.check:
         differing = stale()
@@ -229,7 +296,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1 if differing else 0
     for path in documents():
         text = path.read_text()
-        new = rendered(text, str(path))
+        new = rendered(text, str(path), None if args.only is None else set(args.only))
         if new != text:
             path.write_text(new)
             print(f"rewrote {path.relative_to(REPO)}")

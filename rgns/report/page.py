@@ -253,10 +253,10 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
         ]
         line += (
             f". The mesh step of the {', '.join(thin)} rests on the cheap route's regressions beyond the {pairs} "
-            "pairs (fewer than one expected beyond that probability): a model's extrapolation with one residual "
-            "spread, its coverage measured on synthetic populations only; where the spread grows with the cheap "
-            "runout, as the real pairs' does, the interval at the order's value falls short of 95 % at P 0.01 "
-            "(benchmarks/results/pair_coverage_local.md): read the reported interval, not that one"
+            "pairs (fewer than one expected beyond that probability): a model's extrapolation (a line whose "
+            "residual spread follows the cheap value), its coverage measured on synthetic populations only; on one "
+            "that keeps the real pairs' local residuals the interval at the order's value falls short of 95 % at "
+            "P 0.01 (benchmarks/results/pair_coverage_local.md): read the reported interval, not that one"
             if thin
             else ""
         )

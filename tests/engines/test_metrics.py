@@ -59,6 +59,26 @@ def test_a_single_stray_particle_does_not_move_the_runout_distance(slope):
     )
 
 
+def test_one_stray_point_behind_the_scarp_sets_the_influence_distance_unless_it_moved_less_than_the_threshold(slope):
+    """I is the rear-most displaced point, no percentile (a wedge's thin back tip must count): one point far
+    behind the slide that moved the threshold sets it, one that moved less does not. docs/method.md says why the
+    threshold stays at 1 m (benchmarks/results/threshold_scale.md)."""
+    positions, volumes = slope
+    crest = crest_x(SLOPE)
+    final = positions.copy()
+    sliding = positions[:, 0] > 15.0
+    final[sliding] += [3.0, 0.0]
+    clean = runout_metrics(positions, final, volumes, crest)
+    assert clean.influence_m == pytest.approx(crest - positions[sliding, 0].min())
+    stray = np.argmin(positions[:, 0])  # at the far wall, 20 m behind the crest
+    for moved, influence in ((0.9, clean.influence_m), (1.0, crest - positions[stray, 0])):
+        shifted = final.copy()
+        shifted[stray] += [0.0, -moved]
+        measured = runout_metrics(positions, shifted, volumes, crest)
+        assert measured.influence_m == pytest.approx(influence)
+        assert measured.runout_m == clean.runout_m
+
+
 @pytest.mark.parametrize("cell_size_m, tolerance", [(0.5, 0.04), (0.25, 0.02), (0.1, 0.008)])
 def test_a_known_wedge_slides_its_own_area(cell_size_m, tolerance):
     """Particles above the plane through the toe at 30 degrees slide 3 m down it: V tends to the

@@ -1,0 +1,56 @@
+"""The figures the README and docs render from committed result files (rgns.report.documents)."""
+
+import json
+import re
+import subprocess
+
+import pytest
+
+from rgns.report import documents
+from rgns.report.documents import DocumentError, rendered, stale
+
+
+def test_every_rendered_passage_matches_its_result_files():
+    assert stale() == [], "run python -m rgns.report.documents and commit the documents with their results"
+    assert any("<!-- rendered:" in path.read_text() for path in documents.documents())
+
+
+def test_a_figure_edited_by_hand_is_caught_and_rewriting_restores_it(tmp_path):
+    readme = (documents.REPO / "README.md").read_text()
+    start = readme.index("<!-- rendered: default-run -->")
+    edited = readme[:start] + readme[start:].replace(" min ", " min 1", 1)  # the run's time, edited
+    assert edited != readme
+    path = tmp_path / "README.md"
+    path.write_text(edited)
+    assert stale([path]) == [path]
+    path.write_text(rendered(edited, str(path)))
+    assert stale([path]) == [] and path.read_text() == readme
+
+
+def test_a_passage_without_a_renderer_and_a_result_without_its_commit_are_named(tmp_path, monkeypatch):
+    with pytest.raises(DocumentError, match=r"notes.md: rendered passage 'nothing' has no renderer"):
+        rendered("<!-- rendered: nothing -->\nx\n<!-- end rendered -->\n", "notes.md")
+    monkeypatch.setattr(documents, "RESULTS", tmp_path)
+    monkeypatch.setattr(documents, "REPO", tmp_path.parent)
+    (tmp_path / "fresh_run_site.json").write_text(json.dumps({"command": "python run.py", "cases": {}}))
+    with pytest.raises(DocumentError, match=r"fresh_run_site.json: records no commit or commits"):
+        documents.site_run()
+
+
+def test_every_commit_a_document_cites_is_in_the_history():
+    """A figure "measured at <commit>" must name a commit a reader can check out."""
+    repo = documents.REPO
+    git = subprocess.run(["git", "rev-parse", "--is-shallow-repository"], cwd=repo, capture_output=True, text=True)
+    if git.returncode != 0 or git.stdout.strip() != "false":
+        pytest.skip("not a full git clone: the cited commits cannot be looked up")
+    cited = {
+        (token, path.relative_to(repo))
+        for path in [*documents.documents(), *(repo / "benchmarks" / "results").glob("*.md"), repo / "CHANGELOG.md"]
+        for token in re.findall(r"\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7}\b", path.read_text())
+    }
+    missing = [
+        f"{path}: {token}"
+        for token, path in sorted(cited)
+        if subprocess.run(["git", "cat-file", "-e", f"{token}^{{commit}}"], cwd=repo, capture_output=True).returncode
+    ]
+    assert len(cited) >= 5 and missing == []
