@@ -4,7 +4,7 @@ A document marks a rendered passage with ``<!-- rendered: NAME -->`` … ``<!-- 
 alike, inside a list item); NAME is one of :data:`RENDERERS`, which reads its result file(s) under
 ``benchmarks/results`` and writes the passage. Each result file records the command and the commit that made it,
 and the passage says both; a file made before results recorded their commit is read with ``legacy=True`` and its
-passage names the commit that last changed it instead, as such. ``python -m
+passage names the commit that committed it (its ``committed_in``) instead, as such. ``python -m
 rgns.report.documents`` rewrites every marked passage; ``--check`` lists those that differ from their rendering
 (tests/test_documents.py runs it), so a figure edited by hand, or a result re-measured without its documents,
 fails the tests.
@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -41,7 +40,7 @@ class DocumentError(ValueError):
 
 def result(name: str, legacy: bool = False) -> dict[str, Any]:
     """A committed result file, checked to record its command and commit. ``legacy``: a file made before results
-    recorded their commit gets ``"committed_in"``, the commit that last changed it (git), in place of one."""
+    recorded their commit must say which commit committed it (``"committed_in"``), named in its place."""
     path = RESULTS / name
     shown = path.relative_to(REPO) if path.is_relative_to(REPO) else path
     if not path.exists():
@@ -49,10 +48,8 @@ def result(name: str, legacy: bool = False) -> dict[str, Any]:
     record = json.loads(path.read_text())
     made = [record, *(part for part in record.values() if isinstance(part, dict))]
     if legacy and not any(part.get(key) for part in made for key in ("commit", "commits")):
-        log = subprocess.run(
-            ["git", "log", "-1", "--format=%h", "--", str(path)], cwd=REPO, capture_output=True, text=True
-        )
-        record["committed_in"] = log.stdout.strip() or "an uncommitted change"
+        if not record.get("committed_in"):
+            raise DocumentError(f"{shown}: records no commit, nor the commit that committed it ('committed_in')")
         return record
     for keys in (("commit", "commits"), ("command", "commands")):
         if not any(part.get(key) for part in made for key in keys):
