@@ -254,9 +254,10 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
         line += (
             f". The mesh step of the {', '.join(thin)} rests on the cheap route's regressions beyond the {pairs} "
             "pairs (fewer than one expected beyond that probability): a model's extrapolation (a line whose "
-            "residual spread follows the cheap value), its coverage measured on synthetic populations only; on one "
-            "that keeps the real pairs' local residuals the interval at the order's value falls short of 95 % at "
-            "P 0.01 (benchmarks/results/pair_coverage_local.md): read the reported interval, not that one"
+            "residual spread follows the cheap value), its coverage measured on synthetic populations only, where "
+            "the interval at the order's value falls short of 95 % at P 0.01 (87.5-88.5 % against the grid's reading of "
+            "the answer, 91-92 % against its quantile: benchmarks/results/pair_coverage_superpopulation.md and "
+            "pair_coverage_local.md): read the reported interval, not that one"
             if thin
             else ""
         )
