@@ -15,7 +15,6 @@ Writes ``benchmarks/results/cheap_route.{md,json}``.
 from __future__ import annotations
 
 import json
-import subprocess
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -26,6 +25,7 @@ import torch
 
 from rgns.config import load_config
 from rgns.montecarlo.runs import CaseInputs, run_realizations
+from rgns.provenance import commit
 from rgns.scene.realizations import draw_realization
 from rgns.surrogates.endstate.model import load_model
 
@@ -129,12 +129,6 @@ def main() -> None:
     (ml.OUT / "cheap_route.json").write_text(json.dumps(result, indent=1) + "\n")
     (ml.OUT / "cheap_route.md").write_text(text)
     print(text)
-
-
-def commit() -> str:
-    return subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True
-    ).stdout.strip()
 
 
 def markdown(result: dict) -> str:

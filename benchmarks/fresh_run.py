@@ -30,6 +30,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from rgns.provenance import commit
+
 REPO = Path(__file__).resolve().parent.parent
 RESULTS = REPO / "benchmarks" / "results"
 SCREENS = REPO / "docs" / "screens"
@@ -119,23 +121,19 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, default=None, help="clone here and keep it (default: a temporary one)")
     args = parser.parse_args()
     name = NAMES.get(args.configfile, Path(args.configfile or "config").stem)
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True, check=True
-    ).stdout.strip()
-    dirty = bool(subprocess.run(["git", "status", "--porcelain"], cwd=REPO, capture_output=True, text=True).stdout)
+    made_at = commit()  # HEAD, marked "with local changes" where the clone leaves some out
     work = args.keep or Path(tempfile.mkdtemp(prefix="rgns_fresh_"))
     shell(f"git clone --quiet {REPO} {work}", REPO)
     install_s = shell(INSTALL, work)
     command = "snakemake --cores 2 hazard_map" + (f" --configfile {args.configfile}" if args.configfile else "")
     load = os.getloadavg()
-    print(f"{commit}: installed in {install_s:.0f} s; running {command} (load before {load[0]:.2f})", flush=True)
+    print(f"{made_at}: installed in {install_s:.0f} s; running {command} (load before {load[0]:.2f})", flush=True)
     run = timed(f".venv/bin/{command}", work, work / "run.log")
     cases = sorted(path.parent.name for path in (work / "results" / "report").glob("*/multifidelity.json"))
     result = {
         "command": ".venv/bin/python benchmarks/fresh_run.py"
         + (f" --configfile {args.configfile}" if args.configfile else ""),
-        "commit": commit,
-        "uncommitted_changes_left_out": dirty,
+        "commit": made_at,
         "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "machine": f"{os.cpu_count()} cores, {platform.machine()}, Python {platform.python_version()}",
         "run": command,

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import time
 from pathlib import Path
 
@@ -33,6 +32,7 @@ import torch
 
 from rgns.config import load_config
 from rgns.engines.metrics import MetricSettings
+from rgns.provenance import commit
 from rgns.scene.realizations import CaseInputs
 from rgns.surrogates.endstate.data import read_end_states, simulate_end_states, write_end_states
 from rgns.surrogates.endstate.evaluate import agreement_table, markdown_table
@@ -127,9 +127,7 @@ def main() -> None:
         ),
         "config": args.config,
         "data_seed": config["endstate"]["validation"]["data_seed"],
-        "commit": subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True
-        ).stdout.strip(),
+        "commit": commit(),
     }
     tables = {"model": evaluate(args.model, config, Path(args.data), sets, args.realizations)}
     if args.compare:

@@ -65,7 +65,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -85,6 +84,7 @@ from rgns.fidelity.multilevel import richardson_step
 from rgns.fidelity.outputs import DISTANCE_STEP_M, best_estimate, correct, distance_grid, paired_rows
 from rgns.fidelity.pair_design import design_pairs, row_strata
 from rgns.montecarlo.runs import CaseInputs, run_realizations
+from rgns.provenance import commit
 from rgns.surrogates.endstate.model import load_model
 
 REPO = ml.REPO
@@ -841,8 +841,7 @@ def main() -> None:
     mode = result.get(name, {})
     if mode.get("seed") != args.seed:
         mode = {"seed": args.seed, "replicates": [], "seconds": []}
-    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True)
-    mode["commits"] = sorted({*mode.get("commits", []), head.stdout.strip()})  # the code each part ran
+    mode["commits"] = sorted({*mode.get("commits", []), commit()})  # the code each part ran
     result[name] = mode
     print(
         f"{name}: {len(mode['replicates'])} replicates done before; setup {time.perf_counter() - began:.0f} s",

@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import copy
 import json
-import subprocess
 import time
 from pathlib import Path
 
@@ -26,6 +25,7 @@ import torch
 
 from rgns.config import load_config
 from rgns.engines.metrics import MetricSettings, crest_x, runout_metrics
+from rgns.provenance import commit
 from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.surrogates.endstate.data import EndState, simulate_end_states
 from rgns.trajectories import frame_count
@@ -75,9 +75,7 @@ def main() -> None:
     standing["sets"]["case4"][0] |= {"friction_mean_deg": 45.0, "friction_std_deg": 2.0}
     result: dict = {
         "command": f".venv/bin/python benchmarks/threshold_scale.py --plan {args.plan}",
-        "commit": subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True
-        ).stdout.strip(),
+        "commit": commit(),
         "indices": indices,
         "thresholds": THRESHOLDS,
         "cells": {},

@@ -46,7 +46,7 @@ def test_every_commit_a_document_cites_is_in_the_history():
     cited = {
         (token, path.relative_to(repo))
         for path in [*documents.documents(), *(repo / "benchmarks" / "results").glob("*.md"), repo / "CHANGELOG.md"]
-        for token in re.findall(r"\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7}\b", path.read_text())
+        for token in re.findall(r"\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,10}\b", path.read_text())
     }
     missing = [
         f"{path}: {token}"

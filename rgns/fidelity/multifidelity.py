@@ -461,15 +461,13 @@ def regression_control_variate(
     def combined(columns: list[np.ndarray]) -> np.ndarray:
         return sum(signs[j] * columns[j] for j in range(k))
 
-    if strata is not None and np.unique(strata[:n]).size > 1:
-        g_all = [predicted_exceedance(high[:, j], low[:n, j], low[:, j], thresholds, w) for j in range(k)]
-        residual = combined(indicators(high)) - combined([g[:n] for g in g_all])
-        model = np.sum([g * (1.0 - g) for g in g_all], axis=0)  # the indicators' variance given l, columns apart
-        half = _z(confidence) * np.sqrt(stratified_variance(residual, model, np.asarray(strata), n))
-        lower, upper = np.minimum(lower, estimate - half), np.maximum(upper, estimate + half)
-
     h_ind, l_columns = combined(indicators(high)), indicators(low)
     g_pairs = combined([predicted_exceedance(high[:, j], low[:n, j], low[:n, j], thresholds, w) for j in range(k)])
+    if strata is not None and np.unique(strata[:n]).size > 1:
+        g_all = [predicted_exceedance(high[:, j], low[:n, j], low[:, j], thresholds, w) for j in range(k)]
+        model = np.sum([g * (1.0 - g) for g in g_all], axis=0)  # the indicators' variance given l, columns apart
+        half = _z(confidence) * np.sqrt(stratified_variance(h_ind - g_pairs, model, np.asarray(strata), n))
+        lower, upper = np.minimum(lower, estimate - half), np.maximum(upper, estimate + half)
     var_h, var_l, cov = _sums(h_ind, g_pairs, 0, w[:, None])
     denominator = np.sqrt(var_h * var_l)
     correlation = np.divide(cov, denominator, out=np.full(thresholds.size, np.nan), where=denominator > 0)
