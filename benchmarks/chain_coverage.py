@@ -41,9 +41,10 @@ from scipy import stats
 
 from rgns.config import load_config
 from rgns.fidelity.mesh_extrapolation import converged
-from rgns.fidelity.multifidelity import distance_at, expanded_level
+from rgns.fidelity.multifidelity import expanded_level
 from rgns.fidelity.multilevel import extrapolated, mfmc_estimate, multilevel, richardson_step
-from rgns.fidelity.outputs import DISTANCE_STEP_M, correct
+from rgns.fidelity.outputs import correct
+from rgns.hazard.exceedance import sample_distance
 from rgns.montecarlo.runs import CaseInputs, run_realizations
 from rgns.scene.realizations import accurate_case_inputs
 from rgns.surrogates.endstate.model import load_model
@@ -138,16 +139,15 @@ def drawn(table: pd.DataFrame, picks: np.ndarray) -> pd.DataFrame:
 def distance_answers(
     values: dict[str, np.ndarray], probabilities: list[float], order: list[float]
 ) -> dict[str, dict[str, float]]:
-    """Per probability the population's runout exceeded with it: the direct reference (mesh_levels' on the
-    1 - P quantile) and the chain's own target in this world (the 0.5 m exceedance curve's distance on the
-    pipeline's grid plus the step of the 1 → 0.5 m quantiles)."""
+    """Per probability the population's runout exceeded with it, every distance by the pipeline's one estimator
+    (rgns.hazard.exceedance.sample_distance): the direct reference (mesh_levels' Richardson fit over the three
+    meshes) and the chain's own target in this world (the 0.5 m distance plus the 1 → 0.5 m step)."""
     coarse, half = values["runout_m"][0], values["runout_m"][1]
-    d_m = np.arange(0.0, half.max() + 2 * DISTANCE_STEP_M, DISTANCE_STEP_M)
     answers = {}
     for p in probabilities:
         quantile = exceeded_with(p)
-        curve_distance = distance_at(d_m, (half[:, None] > d_m).mean(axis=0), p)
-        step = richardson_step(quantile(half, axis=-1), quantile(coarse, axis=-1), 2.0, order[1])
+        curve_distance = sample_distance(half, p)
+        step = richardson_step(curve_distance, sample_distance(coarse, p), 2.0, order[1])
         answers[str(p)] = {
             "direct": reference(values["runout_m"], order, quantile)["value"],
             "chain_target": curve_distance + float(step),

@@ -41,6 +41,7 @@ from scipy import stats  # noqa: E402
 from rgns.config import load_config  # noqa: E402
 from rgns.fidelity import mesh_extrapolation  # noqa: E402
 from rgns.fidelity.outputs import correct  # noqa: E402
+from rgns.hazard.exceedance import sample_distance  # noqa: E402
 from rgns.montecarlo.runs import CaseInputs, RunSettings, run_realizations  # noqa: E402
 from rgns.scene.realizations import accurate_case_inputs  # noqa: E402
 
@@ -249,8 +250,9 @@ MIN_BEYOND = 3
 
 
 def exceeded_with(probability: float):
-    """The reducer of the distance exceeded with ``probability`` (the 1 - P quantile over realizations)."""
-    return lambda x, axis: np.quantile(x, 1.0 - probability, axis=axis)
+    """The reducer of the distance exceeded with ``probability`` over realizations, by the pipeline's one
+    estimator (rgns.hazard.exceedance.sample_distance)."""
+    return lambda x, axis: np.apply_along_axis(sample_distance, axis, x, probability)
 
 
 def report(cases: list[str], cells: list[float], run_json: Path | None = None) -> None:
@@ -284,7 +286,7 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
         if len(indices) < 2:
             continue
         r_half = values["runout_m"][1]
-        thresholds = {p: float(np.quantile(r_half, 1.0 - p)) for p in PROBABILITIES}
+        thresholds = {p: float(sample_distance(r_half, p)) for p in PROBABILITIES}
         fits = {key: fit(v) for key, v in values.items()}
         for p in PROBABILITIES:
             for key in ("runout_m", "influence_m"):

@@ -26,9 +26,9 @@ Population (SYNTHETIC, CALIBRATED ON REAL PAIRS; no GPU ran the 10,000 MPM pairs
 
 Its answers are known exactly: the mean runout and the runout exceeded with P (0.5, 0.1, 0.01) at 0.5 m, and
 at the converged mesh ("the chain's target", as benchmarks/chain_coverage.py defines it): the mean plus the
-Richardson step of the 1 → 0.5 m means at the order's point value; the first 0.25 m grid distance at which the
-population's 0.5 m exceedance curve falls to P plus the step of its 1 − P quantiles at 0.5 and 1 m (Hazen).
-The quantile form (the 0.5 m quantile itself plus the step) is reported beside it.
+Richardson step of the 1 → 0.5 m means at the order's point value; the distance at which the population's 0.5 m
+exceedance curve falls to P plus the step of the same distances at 0.5 and 1 m, all read by the pipeline's one
+estimator (rgns.hazard.exceedance: the curve's crossing of P, linear between grid distances).
 
 A replicate draws N realizations with replacement from the population (a drawn row is a new realization 0 …
 N − 1), draws the pairs as rule paired_plan does, and estimates exactly as rule multifidelity does
@@ -79,10 +79,11 @@ from scipy import special, stats
 
 from rgns.config import load_config
 from rgns.fidelity import multifidelity
-from rgns.fidelity.multifidelity import control_variate, distance_at, rearranged, regression_control_variate, route
+from rgns.fidelity.multifidelity import control_variate, rearranged, regression_control_variate, route
 from rgns.fidelity.multilevel import richardson_step
-from rgns.fidelity.outputs import DISTANCE_STEP_M, best_estimate, correct, distance_grid, paired_rows
+from rgns.fidelity.outputs import best_estimate, correct, paired_rows
 from rgns.fidelity.pair_design import design_pairs, row_strata
+from rgns.hazard.exceedance import distance_at, distance_grid, sample_distance
 from rgns.montecarlo.runs import CaseInputs, run_realizations
 from rgns.provenance import commit
 from rgns.surrogates.endstate.model import load_model
@@ -264,7 +265,8 @@ def sabotaged(population: dict[str, dict[str, np.ndarray]], seed: int) -> dict[s
 
 def answers(half: np.ndarray, one: np.ndarray, settings: dict) -> dict[str, dict[str, float]]:
     """The known answers per quantity of a population whose runouts at 0.5 m and 1 m are ``half`` and ``one``:
-    at 0.5 m and converged (the chain's target and the quantile form), at the order's point value."""
+    at each mesh and converged (the chain's target), at the order's point value, every distance by
+    :func:`rgns.hazard.exceedance.sample_distance`."""
     order = float(settings["mesh_order"]["runout_m"][1])
     ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
     result = {
@@ -274,20 +276,10 @@ def answers(half: np.ndarray, one: np.ndarray, settings: dict) -> dict[str, dict
             "converged": float(half.mean() + richardson_step(half.mean(), one.mean(), ratio, order)),
         }
     }
-    d_m = np.arange(0.0, half.max() + 2 * DISTANCE_STEP_M, DISTANCE_STEP_M)
-    exceedance = 1.0 - np.searchsorted(np.sort(half), d_m, side="right") / half.size  # share of half > d
     for p in QUANTITIES[1:]:
-        level = 1.0 - float(p)
-        q_half, q_one = (float(np.quantile(values, level, method="hazen")) for values in (half, one))
-        step = float(richardson_step(q_half, q_one, ratio, order))
-        curve = distance_at(d_m, exceedance, float(p))
-        result[p] = {
-            "accurate": curve,
-            "accurate_quantile": q_half,
-            "coarse_quantile": q_one,
-            "converged": curve + step,
-            "converged_quantile": q_half + step,
-        }
+        accurate, coarse = (sample_distance(values, float(p)) for values in (half, one))
+        step = float(richardson_step(accurate, coarse, ratio, order))
+        result[p] = {"accurate": accurate, "coarse": coarse, "converged": accurate + step}
     return result
 
 
@@ -474,8 +466,6 @@ def summary(records: list[dict], truth: dict[str, dict[str, float]]) -> dict[str
         rows = [r[quantity] for r in records]
         known = truth[quantity]
         targets = {"converged": known["converged"]}
-        if quantity != "mean":
-            targets["converged_quantile"] = known["converged_quantile"]
         estimates = np.array([np.nan if r["estimate"] is None else r["estimate"] for r in rows], dtype=float)
         entry: dict[str, Any] = {"replicates": count, "se": se, "mean_estimate": float(np.nanmean(estimates))}
         for target, answer in targets.items():
@@ -565,7 +555,7 @@ def coverage_table(mode: dict) -> list[str]:
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     names = {"mean": "mean runout", **{p: f"R exceeded with P {p}" for p in QUANTITIES[1:]}}
-    targets = {"converged": "chain's target", "converged_quantile": "quantile form"}
+    targets = {"converged": "chain's target"}
     for quantity, entry in mode["summary"].items():
         for target, label in targets.items():
             if target not in entry:
@@ -655,18 +645,12 @@ def write_report(result: dict, path: Path) -> None:
         "",
         "Known answers (runout, m):",
         "",
-        "| quantity | 0.5 m | converged: chain's target | converged: quantile form | 0.5 m quantile (Hazen) | "
-        "1 m quantile |",
-        "|---|---|---|---|---|---|",
+        "| quantity | 0.5 m | 1 m | converged: chain's target |",
+        "|---|---|---|---|",
     ]
-    truth = meta["answers"]
-    lines.append(f"| mean | {truth['mean']['accurate']:.3f} | {truth['mean']['converged']:.3f} | — | — | — |")
-    for p in QUANTITIES[1:]:
-        t = truth[p]
-        lines.append(
-            f"| exceeded with P {p} | {t['accurate']:.3f} (curve, 0.25 m grid) | {t['converged']:.3f} | "
-            f"{t['converged_quantile']:.3f} | {t['accurate_quantile']:.3f} | {t['coarse_quantile']:.3f} |"
-        )
+    for quantity, t in meta["answers"].items():
+        name = "mean" if quantity == "mean" else f"exceeded with P {quantity}"
+        lines.append(f"| {name} | {t['accurate']:.3f} | {t['coarse']:.3f} | {t['converged']:.3f} |")
     for mode_name in MODES:
         mode = result.get(mode_name)
         if not mode or not mode.get("replicates"):

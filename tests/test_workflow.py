@@ -203,14 +203,15 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
         "Validation against MPM",
         "Hazard: case1 — exceedance",
         "Hazard: case1 — zoning",
-        "Multi-fidelity check",
-        "Hazard: case1 — multi-fidelity correction",
+        "What the runs say",
+        "Hazard: case1 — the multi-fidelity correction in detail",
     ):
         assert heading in page
-    # the best estimate (corrected) leads the case's hazard; the Monte Carlo's own map follows, named so
-    assert page.index(
-        "Hazard: case1 — multi-fidelity correction and mesh extrapolation: the best estimate"
-    ) < page.index("Hazard: case1 — exceedance (uncorrected: the Monte Carlo&#x27;s simulator alone)")
+    # the best estimate (corrected) leads the page; the Monte Carlo's own map follows, named so
+    assert page.split("<h2>")[1].startswith("case1: the answer at the converged mesh")
+    assert page.index("case1: the answer at") < page.index(
+        "Hazard: case1 — exceedance (uncorrected: the Monte Carlo&#x27;s simulator alone)"
+    )
     assert page.count("<img") == 3 + 1 + 3 + 4  # scenes, learning curve, validation, hazard
     # what made the page, above everything else: version, commit, config digest, time, each case's route
     lead = page.split("<h2>")[0]
@@ -227,12 +228,12 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     multifidelity = json.loads((results / "report" / "case1" / "multifidelity.json").read_text())
     assert (multifidelity["n_paired"], multifidelity["n_low"]) == (2, 6)
     # two pairs cannot show that the cheap route pays (its correlation's lower bound is 0): the allocation says
-    # plain MPM, the run applies it, and the page's top says so and why
+    # plain MPM, the run applies it, and the page's answer says so and why
     assert multifidelity["allocation"]["route"] == multifidelity["route_applied"] == "plain MPM"
-    assert (
-        "plain MPM Monte Carlo over the 2 paired realizations (the cheap route correlates"
-        in page.split("Configuration</h2>")[0]
-    )
+    answer = page.split("case1: the evidence</h2>")[0]
+    assert "(a plain MPM Monte Carlo: the cheap route does not pay, see the allocation" in answer
+    assert "<td>the MPM alone over 2 realizations: the cheap route does not pay" in answer
+    assert "plain MPM Monte Carlo over the 2 paired realizations (the cheap route correlates" in page
     assert multifidelity["cost"]["high_s"] > multifidelity["cost"]["low_s"] > 0
     # and once more by the MPM at the Monte Carlo's 1 m mesh: the coarse level of the mesh extrapolation
     coarse = read_csv(results / "mc" / "case1" / "paired_coarse.csv")

@@ -35,7 +35,6 @@ from rgns.fidelity.multifidelity import (
     binned,
     corrected_affected_probability,
     design_weights,
-    distance_at,
     mean_predicted,
     predicted_exceedance,
     rearranged,
@@ -44,6 +43,7 @@ from rgns.fidelity.multifidelity import (
 )
 from rgns.fidelity.multilevel import extrapolated, multilevel, richardson_step
 from rgns.fidelity.pair_design import row_strata
+from rgns.hazard.exceedance import crossings, distance_at
 from rgns.hazard.statistics import zone_levels, zones
 from rgns.scene.realizations import FINISHED
 
@@ -108,13 +108,6 @@ def modelled_crossing(
     return np.where(curve(np.full(shape, float(bracket[1]))) > targets, np.inf, found)
 
 
-def first_below(curve: np.ndarray, d_m: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    """The first grid distance at which each curve [..., T] is at most each probability [P] → [..., P] (inf:
-    never), as :func:`rgns.fidelity.multifidelity.distance_at` reads one curve."""
-    below = curve[..., None, :] <= targets[:, None]
-    return np.where(below.any(-1), d_m[np.argmax(below, axis=-1)], np.inf)
-
-
 @dataclass
 class DistanceIntervals:
     """Per order [value, low, high] and probability: the converged distance's interval ends (NaN: open) and the
@@ -141,7 +134,7 @@ def distance_intervals(
 ) -> DistanceIntervals:
     """The converged distance exceeded with each probability P at each order [orders, P]: the corrected accurate
     curve's distance (as rgns.fidelity.outputs.correct finds it: regression control variate of ``high`` on the
-    cheap ``low``, rearranged, the first grid distance at most P) plus the Richardson step of the distances at
+    cheap ``low``, rearranged, where it falls to P: rgns.hazard.exceedance.crossings) plus the Richardson step of the distances at
     which the accurate and the coarse mesh's modelled curves fall to P (:func:`modelled_crossing`: each mesh's
     regression on the cheap route over all N realizations). The corrected distance is design-unbiased; the step
     is model-based, as Richardson's is, and borrows the N cheap runs' tail: the pairs' 1 − P quantiles it
@@ -166,7 +159,7 @@ def distance_intervals(
         curve = regression_point_estimate(
             high[pick][..., None], cheap[..., None], low_u, d_m, weights=w, low_u_counts=counts
         )
-        distance = first_below(rearranged(curve), d_m, targets)[..., None, :] + step  # [..., orders, P]
+        distance = crossings(rearranged(curve), d_m, targets)[..., None, :] + step  # [..., orders, P]
         return np.stack([distance, step], axis=-3)  # [..., 2, orders, P]
 
     def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:

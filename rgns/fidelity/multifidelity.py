@@ -55,12 +55,6 @@ class ControlVariateEstimate:
     confidence: float
 
 
-def distance_at(d_m: np.ndarray | list[float], probability: np.ndarray | list[float], p: float) -> float | None:
-    """The first distance whose exceedance probability is at most p (None if it never drops there)."""
-    below = np.nonzero(np.asarray(probability) <= p)[0]
-    return float(d_m[below[0]]) if below.size else None
-
-
 def expanded_level(confidence: float, n: int) -> float:
     """The percentile bootstrap's level that makes a ``confidence`` interval from n pairs: Hesterberg's
     expanded percentile interval (2015, "What teachers should know about the bootstrap"), z' =

@@ -34,7 +34,6 @@ from rgns.fidelity.multifidelity import (
     control_variate,  # noqa: E402
     corrected_affected_probability,
     design_weights,
-    distance_at,
     rearranged,
     regression_control_variate,
     route,
@@ -42,16 +41,12 @@ from rgns.fidelity.multifidelity import (
 )
 from rgns.fidelity.pair_design import row_strata  # noqa: E402
 from rgns.fidelity.pair_validation import pair_validation  # noqa: E402
+from rgns.hazard.exceedance import distance_at, distance_grid  # noqa: E402
 from rgns.hazard.statistics import ZONE_LEVELS, exceedance_distances, zone_levels, zones  # noqa: E402
 from rgns.scene.realizations import FINISHED  # noqa: E402
 
 METRICS = {"runout_m": "runout R", "influence_m": "influence I", "volume_m2": "volume V"}
 CURVES = ("runout_m", "influence_m")
-DISTANCE_STEP_M = 0.25
-# how far past the largest run the exceedance curves go, as a share of the runs' span: the regression's Gaussian
-# tails and the bootstrap's upper band reach past it, and a curve cut at the largest run left the upper end of
-# the runout exceeded with P 0.1 open in 10.5 % of the replicates of benchmarks/chain_coverage.py (case 1)
-GRID_MARGIN = 0.5
 
 
 def paired_rows(low: pd.DataFrame, high: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -64,13 +59,6 @@ def paired_rows(low: pd.DataFrame, high: pd.DataFrame) -> tuple[pd.DataFrame, pd
         raise MultiFidelityError(f"{len(both)} realizations finished at both fidelities; at least 2 are needed")
     rest = [i for i in low.index if i not in set(both)]
     return low.loc[both + rest].reset_index(), high.loc[both].reset_index()
-
-
-def distance_grid(values: np.ndarray) -> np.ndarray:
-    """The distances an exceedance curve is evaluated at: from 0 past the largest value by GRID_MARGIN of the
-    values' span, every DISTANCE_STEP_M."""
-    top, bottom = float(np.nanmax(values)), float(np.nanmin(values))
-    return np.arange(0.0, top + GRID_MARGIN * (top - bottom) + DISTANCE_STEP_M, DISTANCE_STEP_M)
 
 
 def costs(low_benchmarks: list[str], n_low: int, high_benchmarks: list[str], n_high: int) -> dict[str, float]:

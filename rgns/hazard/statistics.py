@@ -16,6 +16,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from rgns.hazard.exceedance import DISTANCE_STEP_M, sample_distance
+
 ZONE_LEVELS = ("extremely high", "high", "moderate", "low", "extremely low")
 DEFAULT_THRESHOLDS = (0.9, 0.5, 0.1, 0.01)
 
@@ -248,7 +250,9 @@ def quantile_interval(
 def exceedance_distances(
     values: np.ndarray, probabilities: Sequence[float] = (0.5, 0.1, 0.01), confidence: float = 0.95
 ) -> list[ExceedanceDistance]:
-    """Distances exceeded with each probability p: the (1 − p) empirical quantile (numpy "linear").
+    """Distances exceeded with each probability p: where the sample's exceedance curve falls to p
+    (:func:`rgns.hazard.exceedance.sample_distance`, the estimator every route reads), with the order
+    statistics' distribution-free interval of the (1 − p) quantile.
 
     A probability with n·p < 1 is left unresolved: fewer than one realization is expected beyond
     it, so it can only be reported as "< 1/n", never as a number.
@@ -268,12 +272,10 @@ def exceedance_distances(
             continue
         lower, upper = quantile_interval(sample, 1.0 - p, confidence)
         missing = [name for name, bound in (("lower", lower), ("upper", upper)) if bound is None]
-        note = f"empirical {1.0 - p:g} quantile (linear interpolation) of n = {n}"
+        note = f"empirical exceedance curve's crossing of {p:g} (linear between grid distances {DISTANCE_STEP_M:g} m apart) of n = {n}"
         if missing:
             note += f"; {' and '.join(missing)} {confidence:.0%} bound needs more realizations"
-        results.append(
-            ExceedanceDistance(float(p), float(np.quantile(sample, 1.0 - p, method="linear")), lower, upper, True, note)
-        )
+        results.append(ExceedanceDistance(float(p), sample_distance(sample, p), lower, upper, True, note))
     return results
 
 

@@ -20,10 +20,15 @@ from typing import Any
 import jinja2
 import pandas as pd
 
-from rgns.fidelity.multifidelity import distance_at
+from rgns.hazard.exceedance import distance_at
 from rgns.surrogates.gate import SURROGATE_NAMES
 
 CAPTIONS = Path(__file__).resolve().parents[2] / "docs" / "captions"
+# what is known of a distance's interval where its mesh step rests on the regressions beyond the pairs
+TAIL_COVERAGE = (
+    "its interval's coverage measured on synthetic populations only, short of 95 % there at P 0.01 "
+    "(benchmarks/results/pair_coverage_superpopulation.md, pair_coverage_local.md)"
+)
 STYLE = """
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
 h1 { border-bottom: 2px solid #444; } h2 { margin-top: 2em; border-bottom: 1px solid #aaa; }
@@ -35,6 +40,8 @@ td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: right; } th { bac
 h3 { margin-top: 1.5em; }
 details { border-bottom: 1px solid #ddd; margin: 0.4em 0; }
 summary { font-size: 1.15em; font-weight: bold; cursor: pointer; padding: 0.3em 0; }
+table.answer { font-size: 0.95em; } table.answer td:first-child, table.answer td:last-child { text-align: left; }
+table.answer td:first-child { white-space: nowrap; }
 """
 
 
@@ -58,9 +65,9 @@ def figure(path: str | Path, text: str) -> str:
     )
 
 
-def table(frame: pd.DataFrame, digits: int = 3) -> str:
-    """An HTML table, floats rounded."""
-    return frame.to_html(index=False, float_format=lambda v: f"{v:.{digits}f}", na_rep="–", border=0)
+def table(frame: pd.DataFrame, digits: int = 3, classes: str | None = None) -> str:
+    """An HTML table, floats rounded (``classes``: its CSS classes)."""
+    return frame.to_html(index=False, float_format=lambda v: f"{v:.{digits}f}", na_rep="–", border=0, classes=classes)
 
 
 @dataclass
@@ -254,41 +261,87 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
         line += (
             f". The mesh step of the {', '.join(thin)} rests on the cheap route's regressions beyond the {pairs} "
             "pairs (fewer than one expected beyond that probability): a model's extrapolation (a line whose "
-            "residual spread follows the cheap value), its coverage measured on synthetic populations only, where "
-            "the interval at the order's value falls short of 95 % at P 0.01 (87.5-88.5 % against the grid's reading of "
-            "the answer, 91-92 % against its quantile: benchmarks/results/pair_coverage_superpopulation.md and "
-            "pair_coverage_local.md): read the reported interval, not that one"
+            f"residual spread follows the cheap value), {TAIL_COVERAGE}"
             if thin
             else ""
         )
     return line + ".", excluded
 
 
-def best_estimate_section(report: Report, case: str, files: dict[str, Path]) -> None:
-    """The answer for a case with a multi-fidelity correction: its figure, one table of the best estimate (the
-    means and the distances exceeded with each probability, with intervals, at the converged mesh where the
-    mesh extrapolation ran), and the zones."""
-    record = json.loads(files["multifidelity.json"].read_text())
-    parts = [figure(files["multifidelity.png"], caption("multifidelity", case=case))]
-    parts += mesh_chain(record) if "converged" in record else corrected_table(record)
+def cautions(record: dict[str, Any], key: str, p: str | None, entry: dict[str, Any]) -> str:
+    """Why to read one number of the answer with care, in a few words ("" where nothing is known against it):
+    an interval these runs leave open, a mesh step that rests on the cheap route's regressions beyond the
+    pairs, a mean left at the accurate mesh, a best estimate by the MPM alone."""
+    said = []
+    if record.get("route_applied") == "plain MPM":
+        said.append(f"the MPM alone over {record['n_paired']} realizations: the cheap route does not pay")
     if "converged" in record:
-        zoning = record["converged"]["zoning"]
-        parts += [
-            paragraph(
-                f"Zones at the converged mesh (fronts moved {zoning['front_step_m']:+.2f} m, "
-                f"{zoning['front_step_range_m'][0]:+.2f} to {zoning['front_step_range_m'][1]:+.2f} over the "
-                f"runout's order interval; back scarps {zoning['rear_step_m']:+.2f} m, "
-                f"{zoning['rear_step_range_m'][0]:+.2f} to {zoning['rear_step_range_m'][1]:+.2f}):"
-            ),
-            table(pd.DataFrame(zoning["zones"]), 2),
-        ]
+        pairs = record["converged"]["n_pairs"]
+        if entry.get("mesh_step") is None:
+            said.append(f"at {record['high_cell_size_m']:g} m cells: no convergence order measured")
+        elif p is not None and pairs * float(p) < 1.0:
+            said.append(f"mesh step modelled beyond the {pairs} pairs: {TAIL_COVERAGE}")
+    if p is not None and (entry.get("upper") is None or entry.get("open_above")):
+        said.append("open above: these runs do not bound it")
+    return "; ".join(said)
+
+
+def headline_rows(record: dict[str, Any]) -> list[dict[str, Any]]:
+    """The answer, one row per number: the best estimate with its interval and the mesh it stands for."""
+    high = record["high_cell_size_m"]
+    rows = []
+    if "converged" in record:
+        c = record["converged"]
+        for key, entries in c["distances"].items():
+            for p, d in entries.items():
+                mesh = "converged" if d.get("mesh_step") is not None else f"{high:g} m"
+                rows.append((f"{key} exceeded with P {p}", d["estimate"], d["lower"], d["upper"], mesh, key, p, d))
+        for key, m in c["means"].items():
+            mesh = "converged" if m["mesh_step"] is not None else f"{high:g} m"
+            rows.append((f"mean {key}", m["estimate"], m["lower"], m["upper"], mesh, key, None, m))
     else:
-        parts += [
-            paragraph(f"Zones corrected to the MPM at {record['high_cell_size_m']:g} m cells:"),
-            table(pd.DataFrame(record["zoning"]["zones_corrected"]), 2),
-        ]
-    title = "multi-fidelity correction and mesh extrapolation" if "converged" in record else "multi-fidelity correction"
-    report.add(f"Hazard: {case} — {title}: the best estimate", *parts)
+        for key, curve in record["exceedance"].items():
+            for p, d in curve["distances"].items():
+                upper = None if d.get("open_above") else distance_at(curve["d_m"], curve["upper"], float(p))
+                band = {"upper": upper, "open_above": d.get("open_above")}
+                lower = distance_at(curve["d_m"], curve["lower"], float(p))
+                rows.append((f"{key} exceeded with P {p}", d["corrected"], lower, upper, f"{high:g} m", key, p, band))
+        for key, m in record["means"].items():
+            rows.append((f"mean {key}", m["estimate"], m["lower"], m["upper"], f"{high:g} m", key, None, m))
+    names = {"runout_m": "runout R (m)", "volume_m2": "volume V (m²)", "influence_m": "influence I (m)"}
+    return [
+        {
+            "quantity": name.replace(key, names.get(key, key)),
+            "best estimate": value,
+            f"[{record['confidence']:.0%}": lower,
+            "interval]": upper,
+            "mesh": mesh,
+            "read with care": cautions(record, key, p, entry),
+        }
+        for name, value, lower, upper, mesh, key, p, entry in rows
+    ]
+
+
+def answer_section(report: Report, case: str, files: dict[str, Path]) -> None:
+    """The answer for a case with a multi-fidelity correction, first on the page: one table of the best estimate
+    (the distances exceeded with each probability and the means, with intervals, at the converged mesh where
+    the mesh extrapolation ran, and why to read a number with care beside it), the exceedance curves and the
+    zoning along the section in one figure, and the zones."""
+    record = json.loads(files["multifidelity.json"].read_text())
+    converged = "converged" in record
+    zoning = record["converged"]["zoning"]["zones"] if converged else record["zoning"]["zones_corrected"]
+    mesh = "the converged mesh" if converged else f"the MPM at {record['high_cell_size_m']:g} m cells"
+    report.add(
+        f"{case}: the answer at {mesh}",
+        paragraph(
+            f"The best estimate: {source(record)}"
+            + (", carried to the converged mesh (the evidence below, step by step)." if converged else ".")
+        ),
+        table(pd.DataFrame(headline_rows(record)), 2, "answer"),
+        figure(files["multifidelity.png"], caption("multifidelity", case=case)),
+        paragraph(f"Zones along the section at {mesh}:"),
+        table(pd.DataFrame(zoning), 2),
+    )
 
 
 def source(record: dict[str, Any]) -> str:
@@ -538,10 +591,27 @@ def interval_parts(record: dict[str, Any]) -> list[str]:
 
 
 def evidence_section(report: Report, case: str, files: dict[str, Path]) -> None:
-    """The evidence under a case's best estimate: the pairs' validation, the allocation, what the intervals hold."""
+    """The evidence under a case's best estimate: what the runs say against the Monte Carlo's own map, the
+    estimate step by step, the pairs' validation, the allocation, what the intervals hold."""
     record = json.loads(files["multifidelity.json"].read_text())
+    steps = mesh_chain(record) if "converged" in record else corrected_table(record)
+    if "converged" in record:
+        zoning = record["converged"]["zoning"]
+        steps.append(
+            paragraph(
+                f"The zones' mesh step: fronts moved {zoning['front_step_m']:+.2f} m "
+                f"({zoning['front_step_range_m'][0]:+.2f} to {zoning['front_step_range_m'][1]:+.2f} over the "
+                f"runout's order interval), back scarps {zoning['rear_step_m']:+.2f} m "
+                f"({zoning['rear_step_range_m'][0]:+.2f} to {zoning['rear_step_range_m'][1]:+.2f})."
+            )
+        )
+    line, excluded = _runout_line(case, record)
     report.add(
-        f"Hazard: {case} — the evidence",
+        f"{case}: the evidence",
+        subheading("What the runs say"),
+        paragraph(line, note=excluded),
+        subheading("The best estimate, step by step"),
+        *steps,
         *pair_validation_parts(case, record),
         *allocation_parts(record),
         *interval_parts(record),
@@ -595,17 +665,6 @@ def correction_details(report: Report, case: str, files: dict[str, Path]) -> Non
             table(pd.DataFrame(record["zoning"]["zones_corrected"]), 2),
         ]
     report.add(f"Hazard: {case} — the multi-fidelity correction in detail", *parts, folded=True)
-
-
-def fidelity_summary(report: Report, hazard: dict[str, dict[str, Path]]) -> None:
-    """At the top: how far the Monte Carlo's simulator is from the accurate MPM, where that was measured."""
-    lines = [
-        paragraph(*_runout_line(case, json.loads(files["multifidelity.json"].read_text())))
-        for case, files in hazard.items()
-        if "multifidelity.json" in files
-    ]
-    if lines:
-        report.add("Multi-fidelity check", *lines)
 
 
 def gate_section(
@@ -763,10 +822,13 @@ def build_report(
     surrogate: str | None = "gns",
     made: dict[str, str] | None = None,
 ) -> str:
-    """The whole page, the answer first: (a) what made it and the route of each Monte Carlo case, with every
-    warning (runs left out, a failed gate, numbers the multi-fidelity check distrusts); (b) per case the best
-    estimate (its figure, one table, the zones); (c) the evidence (the pairs' validation, the allocation, what
-    the intervals hold; a case without a correction: its convergence); (d) folded details: configuration,
+    """The whole page, the answer first: (a) what made it and the route of each Monte Carlo case, with the
+    warnings that concern every number (runs left out; the gate's verdicts, where a case's map rests on the
+    learned simulator alone); (b) per case the answer: one table of the best estimate with each number's
+    caution beside it, the figure of the exceedance curves and the zoning, the zones; (c) the evidence (the
+    gate's verdicts where pairs correct every case, then per case what the runs say, the estimate step by
+    step, the pairs' validation, the allocation, what the intervals hold; a case without a correction: its
+    convergence); (d) folded details: configuration,
     scenes, the model, its validation on the test cases, each case's correction in detail and its uncorrected
     Monte Carlo map. ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and
     evaluation these are (None: a plain MPM Monte Carlo, no learned simulator, nor its curve, evaluation
@@ -774,16 +836,19 @@ def build_report(
     lead = provenance_line(made, routes(list(hazard), gate or {}, surrogate or "gns")) if made else ""
     report = Report(title, "\n".join([lead, *shrinkage_notes(hazard, validation_summary)]))
     corrected = [case for case, files in hazard.items() if "multifidelity.json" in files]
-    # (a) the route of each case and what to distrust
-    gate_section(report, gate or {}, list(hazard), None, surrogate or "gns", corrected)
-    fidelity_summary(report, hazard)
-    # (b) the answer
+    # (a) the gate first where a case's map rests on the learned simulator alone (no pairs correct it)
+    rests_on_model = any(case not in corrected for case in hazard)
+    if rests_on_model:
+        gate_section(report, gate or {}, list(hazard), None, surrogate or "gns", corrected)
+    # (b) the answer, each number's caution beside it
     for case, files in hazard.items():
         if case in corrected:
-            best_estimate_section(report, case, files)
+            answer_section(report, case, files)
         else:
             monte_carlo_sections(report, case, files, "answer")
     # (c) the evidence
+    if not rests_on_model:
+        gate_section(report, gate or {}, list(hazard), None, surrogate or "gns", corrected)
     for case, files in hazard.items():
         if case in corrected:
             evidence_section(report, case, files)

@@ -7,7 +7,8 @@ from scipy import stats
 
 from rgns.fidelity.mesh_extrapolation import converged, distance_intervals, modelled_crossing
 from rgns.fidelity.multifidelity import MultiFidelityError
-from rgns.fidelity.outputs import correct, distance_grid, write_multifidelity
+from rgns.fidelity.outputs import correct, write_multifidelity
+from rgns.hazard.exceedance import distance_grid
 
 ORDER = 1.3
 SETTINGS = {

@@ -261,18 +261,21 @@ def synthetic_page(tmp_path, record: dict | None, learned: bool = True) -> str:
 
 @pytest.mark.parametrize("converged", [False, True])
 def test_the_page_leads_with_the_best_estimate_and_folds_the_details(tmp_path, converged):
-    """Provenance and the gate's warnings first, then the best estimate (its figure and one table), the
-    evidence (the pairs' validation, the allocation, what the intervals hold), then the configuration and the
-    rest folded in <details>; every figure once."""
+    """Provenance first, then the answer (one table of the best estimate with each number's caution, the
+    figure, the zones), the evidence (the gate, which the pairs make a report of the model; what the runs say,
+    the estimate step by step, the pairs' validation, the allocation, what the intervals hold), then the
+    configuration and the rest folded in <details>; every figure once."""
     page = synthetic_page(tmp_path, synthetic_record(converged, pair_validation=True))
     lead = page.split("<h2>")[0]
     assert "Made by rgns 0.1.0" in lead and "case1: end-state surrogate (passed its gate)" in lead
-    assert page.split("<h2>")[1].startswith("Validation gate")
-    best = page.index("the best estimate</h2>")
+    assert page.split("<h2>")[1].startswith("case1: the answer at")
     order = [
+        page.index('<table class="dataframe answer">'),  # the one table of the answer
+        page.index("<td>runout R (m) exceeded with P 0.5</td>"),
+        page.index("<img"),  # its figure
         page.index("<h2>Validation gate</h2>"),
-        best,
-        page.index("= best estimate", best),  # the one table of the best estimate
+        page.index("<h3>What the runs say</h3>"),
+        page.index("<h3>The best estimate, step by step</h3>"),
         page.index("<h3>The pairs&#x27; validation</h3>"),
         page.index("<h3>The allocation</h3>"),
         page.index("<h3>What the intervals hold</h3>"),
@@ -281,8 +284,7 @@ def test_the_page_leads_with_the_best_estimate_and_folds_the_details(tmp_path, c
         page.index("Hazard: case1 — exceedance (uncorrected"),
     ]
     assert order == sorted(order)
-    assert page.index("= best estimate") < page.index("<pre>")
-    assert page.count("= best estimate</th>") == 1  # one table of the best estimate, not three
+    assert page.count('class="dataframe answer"') == 1 and page.count("= best estimate</th>") == 1
     configuration = re.search(r"<details><summary>Configuration</summary>\s*<pre>(.*?)</pre>\s*</details>", page, re.S)
     assert configuration and "the_configuration_dump" in configuration.group(1)
     assert "<details open" not in page  # folded by default
@@ -310,7 +312,7 @@ def test_the_page_leads_with_the_best_estimate_and_folds_the_details(tmp_path, c
 def test_without_a_pair_validation_in_the_record_the_page_has_no_such_table(tmp_path):
     page = synthetic_page(tmp_path, synthetic_record(converged=False, pair_validation=False))
     assert "The pairs&#x27; validation" not in page and "R² [lower, upper]" not in page
-    assert "<h3>The allocation</h3>" in page and page.index("= best estimate") < page.index("<pre>")
+    assert "<h3>The allocation</h3>" in page and page.index('class="dataframe answer"') < page.index("<pre>")
 
 
 def test_a_case_without_a_correction_answers_with_its_own_map_unfolded(tmp_path):
