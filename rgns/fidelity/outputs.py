@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
+import matplotlib.figure
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -172,28 +173,36 @@ def correct(
 
 
 def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
-    """Exceedance of R and I and the zoning probability: cheap route, corrected (with interval), paired accurate."""
+    """The figure of :func:`best_estimate_figure`, written to ``path``."""
+    fig = best_estimate_figure(record, case)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def best_estimate_figure(record: dict[str, Any], case: str) -> matplotlib.figure.Figure:
+    """Exceedance of R and I and the zoning probability: cheap route, corrected (with interval), paired accurate,
+    and at the converged mesh the distances exceeded with each P and the zoning. The curves are drawn linear
+    between the distances they are known at, as rgns.hazard.exceedance reads them, so that a distance's
+    marker sits on its curve; the pairs' own curve, a sample's, as steps."""
     fig, axes = plt.subplots(1, 3, figsize=(14, 4))
     simulator_differs = not record.get("cheap_is_simulator", True)
     for ax, key in zip(axes, CURVES):
         curve = record["exceedance"][key]
         d = curve["d_m"]
-        ax.step(d, curve["uncorrected"], where="post", color="C0", label=f"cheap route (n = {record['n_low']})")
-        ax.step(d, curve["corrected"], where="post", color="C3", label="multi-fidelity corrected")
+        ax.plot(d, curve["uncorrected"], color="C0", label=f"cheap route (n = {record['n_low']})")
+        ax.plot(d, curve["corrected"], color="C3", label="multi-fidelity corrected")
         ax.fill_between(
             d,
             curve["lower"],
             curve["upper"],
-            step="post",
             color="C3",
             alpha=0.2,
             label=f"{record['confidence']:.0%} interval",
         )
         if curve.get("simulator") is not None and simulator_differs:
-            ax.step(
+            ax.plot(
                 d,
                 curve["simulator"],
-                where="post",
                 color="0.5",
                 linestyle="--",
                 label="Monte Carlo's simulator (its map)",
@@ -241,8 +250,7 @@ def plot(record: dict[str, Any], path: str | Path, case: str) -> None:
         + (", and carried to the converged mesh" if "converged" in record else "")
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    return fig
 
 
 def simulator_validation(

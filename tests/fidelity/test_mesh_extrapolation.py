@@ -197,3 +197,36 @@ def test_the_plain_mpm_route_extrapolates_the_pairs_alone(tmp_path):
     assert mean["estimate"] == pytest.approx(truth[:40].mean(), abs=1e-9)
     tail = record["converged"]["distances"]["runout_m"]["0.01"]
     assert tail["upper"] is None and tail["lower"] is not None
+
+
+def test_the_best_estimate_figure_draws_the_records_own_curves_and_converged_distances():
+    """What the page's answer figure shows, read back from its axes: on each curve panel the corrected curve and
+    its band are the record's, each converged distance a marker at (estimate, P) with the record's interval, and
+    a corrected distance at the accurate mesh lies on the drawn corrected line (the line is read as the
+    estimator reads it); the zoning panel's converged line is the record's converged zoning."""
+    from rgns.fidelity.outputs import best_estimate_figure
+
+    _, low, high, coarse = chain(6, n_low=200, n_pairs=16)
+    record = write_multifidelity(
+        low, high, SETTINGS, COST, {"json": "/dev/null", "figure": "/dev/null"}, "c", coarse=coarse
+    )
+    figure = best_estimate_figure(record, "c")
+    runout_axis, _, zoning_axis = figure.axes
+    curve = record["exceedance"]["runout_m"]
+    (corrected,) = [line for line in runout_axis.get_lines() if line.get_label() == "multi-fidelity corrected"]
+    np.testing.assert_array_equal(corrected.get_xdata(), curve["d_m"])
+    np.testing.assert_array_equal(corrected.get_ydata(), curve["corrected"])
+    assert corrected.get_drawstyle() == "default"  # linear between grid distances, not steps
+    for p, entry in curve["distances"].items():  # the drawn line crosses P at the record's corrected distance
+        assert np.interp(entry["corrected"], corrected.get_xdata(), corrected.get_ydata()) == pytest.approx(float(p))
+    markers = [c for c in runout_axis.containers if c.lines[0].get_marker() == "D"]
+    drawn = sorted((float(c.lines[0].get_xdata()[0]), float(c.lines[0].get_ydata()[0])) for c in markers)
+    expected = sorted((e["estimate"], float(p)) for p, e in record["converged"]["distances"]["runout_m"].items())
+    np.testing.assert_allclose(drawn, expected)
+    (band,) = runout_axis.collections[:1]
+    vertices = band.get_paths()[0].vertices
+    assert vertices[:, 1].min() == pytest.approx(min(curve["lower"])) and vertices[:, 1].max() == pytest.approx(
+        max(curve["upper"])
+    )
+    (line,) = [line for line in zoning_axis.get_lines() if line.get_label() == "converged mesh"]
+    np.testing.assert_array_equal(line.get_ydata(), record["converged"]["zoning"]["probability"])
