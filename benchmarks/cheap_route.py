@@ -90,7 +90,12 @@ def main() -> None:
     routes = {name: run_model(path, config, inputs) for name, path in MODELS.items()}
     routes["MPM 1 m (reference)"] = ({k: mpm[k][0] for k in ml.METRICS}, {"pipeline": mpm_s[1.0], "network": None})
     subsets = {"all 128 (0-127)": slice(0, REALIZATIONS), f"untouched ({UNTOUCHED}-127)": slice(UNTOUCHED, None)}
-    result: dict = {"seed": config["seed"], "commit": commit(), "subsets": {}}
+    result: dict = {
+        "seed": config["seed"],
+        "commit": commit(),
+        "command": "python benchmarks/cheap_route.py",
+        "subsets": {},
+    }
     for subset, rows in subsets.items():
         result["subsets"][subset] = {
             name: {
