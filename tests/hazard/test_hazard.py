@@ -252,3 +252,60 @@ def test_the_exceedance_figure_draws_each_metrics_own_curve_and_the_mean_field_w
         np.testing.assert_array_equal(step.get_ydata(), np.maximum(curve.probability, 1.0 / (2 * curve.n)))
         mean_field = [line for line in axis.get_lines() if line.get_label() == "mean-field"]
         assert [line.get_xdata()[0] for line in mean_field] == ([6.0] if name == "runout distance R" else [])
+
+
+def drawn_figures(monkeypatch) -> list:
+    """The figures saved while the test runs (each kept open for reading back)."""
+    drawn = []
+    save = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(
+        matplotlib.figure.Figure,
+        "savefig",
+        lambda figure, *args, **kwargs: (drawn.append(figure), save(figure, *args, **kwargs))[1],
+    )
+    return drawn
+
+
+def test_the_zoning_figure_draws_each_zone_where_the_zones_put_it_in_its_colour(tmp_path, monkeypatch):
+    """Read back: the band under the section has one rectangle per zone, spanning that zone's x range in the
+    colour of its level, and the probability line is P(affected) floored at 1 / 2n on the log axis."""
+    from rgns.hazard.plots import ZONE_COLOURS
+
+    drawn = drawn_figures(monkeypatch)
+    rng = np.random.default_rng(14)
+    influence_m, runout_m = rng.exponential(3.0, 400), rng.exponential(8.0, 400)
+    x_m = np.linspace(0.0, 80.0, 321)
+    affected = affected_probability(x_m, 25.0 - influence_m, 40.0 + runout_m)
+    levels = zone_levels(affected.probability, DEFAULT_THRESHOLDS)
+    vertices = np.array([[0.0, 0.0], [40.0, 0.0], [25.0, 10.0], [0.0, 10.0]])
+    plot_zoning(vertices, affected, levels, DEFAULT_THRESHOLDS, 80.0, 20.0, tmp_path / "z.png")
+    (figure,) = drawn
+    section, probability_axis = figure.axes[:2]
+    band = [patch for patch in section.patches if patch.get_alpha() == 1.0]  # the solid band under the section
+    expected = zones(x_m, levels)
+    assert len(band) == len(expected) > 2
+    for patch, zone in zip(sorted(band, key=lambda p: p.get_x()), expected, strict=True):
+        assert (patch.get_x(), patch.get_x() + patch.get_width()) == pytest.approx((zone.x_from_m, zone.x_to_m))
+        assert matplotlib.colors.same_color(patch.get_facecolor()[:3], ZONE_COLOURS[ZONE_LEVELS.index(zone.level)])
+    (line,) = [line for line in probability_axis.get_lines() if line.get_label() == "P(point affected)"]
+    np.testing.assert_array_equal(line.get_ydata(), np.maximum(affected.probability, 1.0 / (2 * affected.n)))
+
+
+def test_the_convergence_figure_marks_where_each_running_statistic_converged(tmp_path, monkeypatch):
+    """Read back: each metric's running mean and std are the trace's, the dashed marker at the n where the
+    paper's rule says it converged, and a trace that never converges says so instead of a marker."""
+    drawn = drawn_figures(monkeypatch)
+    rng = np.random.default_rng(15)
+    settled, short = convergence(rng.normal(10.0, 1.0, 6000)), convergence(rng.lognormal(0.0, 2.0, 30))
+    assert settled.converged_at is not None and short.converged_at is None
+    plot_convergence({"runout distance R": settled, "influence distance I": short}, tmp_path / "c.png")
+    (figure,) = drawn
+    mean_axis, std_axis, short_mean_axis, _ = figure.axes
+    (mean,) = [line for line in mean_axis.get_lines() if line.get_label() == "running mean"]
+    np.testing.assert_array_equal(mean.get_ydata(), settled.mean)
+    (std,) = [line for line in std_axis.get_lines() if line.get_label() == "running std"]
+    np.testing.assert_array_equal(std.get_ydata(), settled.std)
+    (marker,) = [line for line in mean_axis.get_lines() if line.get_label().startswith("converged at n =")]
+    assert marker.get_xdata()[0] == settled.converged_at
+    assert not [line for line in short_mean_axis.get_lines() if line.get_label().startswith("converged at")]
+    assert any(text.get_text().startswith("not converged within 30") for text in short_mean_axis.texts)
