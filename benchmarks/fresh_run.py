@@ -39,7 +39,10 @@ INSTALL = "python3 -m venv .venv && .venv/bin/pip install -q torch==2.13.0 -e ."
 NAMES = {None: "default", "config/site.yaml": "site"}
 # the figures a doc shows from the run: (path in the run, path in the repository)
 FIGURES = {
-    "default": [("results/report/case1/multifidelity.png", "docs/default_best_estimate.png")],
+    "default": [
+        ("results/report/case1/multifidelity.png", "docs/default_best_estimate.png"),
+        ("results/report/case1/convergence.png", "docs/default_convergence.png"),
+    ],
     "site": [("results/site/hillside/map.png", "docs/site_example_map.png")],
 }
 
@@ -71,8 +74,25 @@ def interval(entry: dict[str, Any], key: str = "estimate") -> list[float | None]
     return [entry[key], entry["lower"], entry["upper"]]
 
 
-def headline(report: Path) -> dict[str, Any]:
-    """A case's best estimate, the evidence behind it and its convergence, from its report's files."""
+def pair_positions(record: dict[str, Any], mc: Path) -> dict[str, Any]:
+    """Where the paired realizations sit in the cheap route's runout: their quantiles among all its runs (the
+    share at or below each), how many lie above its 0.9 and 0.99 quantiles, and the design's strata."""
+    import pandas as pd
+
+    plan = json.loads((mc / "paired_plan.json").read_text())
+    cheap = pd.read_csv(mc / ("realizations.csv" if record.get("cheap_is_simulator", True) else "control.csv"))
+    share = cheap.set_index("index")["runout_m"].rank(pct=True)
+    quantiles = sorted(float(q) for q in share.loc[plan["indices"]])
+    return {
+        "quantiles": quantiles,
+        "above_0.9": sum(q > 0.9 for q in quantiles),
+        "above_0.99": sum(q > 0.99 for q in quantiles),
+        "strata": {key: plan[key] for key in ("bounds_m", "sizes", "pairs")},
+    }
+
+
+def headline(report: Path, mc: Path) -> dict[str, Any]:
+    """A case's best estimate, the evidence behind it, where its pairs sit and its convergence, from its files."""
     record = json.loads((report / "multifidelity.json").read_text())
     convergence = json.loads((report / "convergence.json").read_text())
     converged = record["converged"]
@@ -93,6 +113,7 @@ def headline(report: Path) -> dict[str, Any]:
         "simulator_validation": record.get("simulator_validation"),
         "allocation": record["allocation"],
         "converged_at": {name: entry["converged_at"] for name, entry in convergence["metrics"].items()},
+        "pairs": pair_positions(record, mc),
     }
 
 
@@ -140,7 +161,7 @@ def main() -> None:
         "install_s": install_s,
         "load_before": list(load),
         **run,
-        "cases": {case: headline(work / "results" / "report" / case) for case in cases},
+        "cases": {case: headline(work / "results" / "report" / case, work / "results" / "mc" / case) for case in cases},
     }
     path = RESULTS / f"fresh_run_{name}.json"
     path.write_text(json.dumps(result, indent=1) + "\n")

@@ -108,11 +108,30 @@ def run_lines(record: dict[str, Any], case: str) -> list[str]:
             else ""
         )
         + ".",
+        *pair_lines(head),
         "The running mean and variance converge (the paper's rule) at n = "
         + " and ".join(f"{n:,} ({name})" for name, n in converged.items())
         + f". The allocation: {head['allocation']['reason']}.",
     ]
     return lines
+
+
+def pair_lines(head: dict[str, Any]) -> list[str]:
+    """Where a run's pairs sit in its cheap route's runout (a run recorded before fresh_run.py took it: none)."""
+    pairs = head.get("pairs")
+    if pairs is None:
+        return []
+    strata = pairs["strata"]
+    design = (
+        "a simple random draw (no strata)"
+        if len(strata["sizes"]) == 1
+        else f"{len(strata['sizes'])} strata of the cheap runout with {' / '.join(map(str, strata['pairs']))} pairs"
+    )
+    low, high = pairs["quantiles"][0], pairs["quantiles"][-1]
+    return [
+        f"The pairs, {design}, sit between the cheap runout's {low:.3f} and {high:.3f} quantiles: "
+        f"{pairs['above_0.9']} above its 0.9 quantile, {pairs['above_0.99']} above 0.99."
+    ]
 
 
 def default_run() -> str:
