@@ -142,7 +142,7 @@ def monte_carlo_sections(report: Report, case: str, files: dict[str, Path], part
     if part == "evidence":
         report.add(f"Hazard: {case} — convergence{own}", *convergence_parts(case, files))
         return
-    if "map.png" in files:
+    if "map.png" in files and not own:  # a corrected case's map view is drawn from its best estimate: its answer
         report.add(
             f"Site: {case} — map view{own}", figure(files["map.png"], caption("site_map", case=case)), folded=folded
         )
@@ -326,7 +326,8 @@ def answer_section(report: Report, case: str, files: dict[str, Path]) -> None:
     """The answer for a case with a multi-fidelity correction, first on the page: one table of the best estimate
     (the distances exceeded with each probability and the means, with intervals, at the converged mesh where
     the mesh extrapolation ran, and why to read a number with care beside it), the exceedance curves and the
-    zoning along the section in one figure, and the zones."""
+    zoning along the section in one figure, the zones, and a site's map view (rgns.hazard.site_gis draws it
+    from these zones)."""
     record = json.loads(files["multifidelity.json"].read_text())
     converged = "converged" in record
     zoning = record["converged"]["zoning"]["zones"] if converged else record["zoning"]["zones_corrected"]
@@ -341,6 +342,7 @@ def answer_section(report: Report, case: str, files: dict[str, Path]) -> None:
         figure(files["multifidelity.png"], caption("multifidelity", case=case)),
         paragraph(f"Zones along the section at {mesh}:"),
         table(pd.DataFrame(zoning), 2),
+        *([figure(files["map.png"], caption("site_map", case=case))] if "map.png" in files else []),
     )
 
 
@@ -697,7 +699,7 @@ def gate_section(
             if case in corrected:
                 then = (
                     f"the Monte Carlo ran the {name} all the same (validation.acceptance.on_failure: report): the "
-                    f"best estimate below is corrected to the MPM by this case's pairs, so it does not rest on the "
+                    f"best estimate is corrected to the MPM by this case's pairs, so it does not rest on the "
                     f"{name} being right (its errors widen the intervals)"
                 )
             else:
