@@ -242,9 +242,12 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     assert extrapolated["n_pairs"] == 2 and extrapolated["order"] == config["montecarlo"]["fidelity"]["mesh_order"]
     runout = extrapolated["means"]["runout_m"]
     assert runout["estimate"] == pytest.approx(runout["accurate"] + runout["mesh_step"])
-    assert "carried to the converged mesh" in page and "multi-fidelity correction and mesh extrapolation" in page
-    # a quantity without a measured order stays at 0.5 m, and the top of the page says so
-    assert "Not carried to the converged mesh (no convergence order measured" in page.split("Configuration</h2>")[0]
+    assert "carried to the converged mesh" in page and "case1: the answer at the converged mesh" in page
+    # a quantity without a measured order stays at 0.5 m, and the answer's table says so beside it
+    assert re.search(
+        r"<td>mean volume V \(m²\)</td>(\s*<td>[^<]*</td>){3}\s*<td>0\.5 m</td>\s*<td>[^<]*no convergence order", answer
+    )
+    assert "Not carried to the converged mesh (no convergence order measured" in page
 
 
 def test_strata_pair_the_realizations_the_plan_drew_in_each_and_weigh_them(built, tmp_path):
