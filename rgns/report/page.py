@@ -146,9 +146,7 @@ def monte_carlo_sections(report: Report, case: str, files: dict[str, Path], part
         report.add(f"Hazard: {case} — convergence{own}", *convergence_parts(case, files))
         return
     if "map.png" in files and not own:  # a corrected case's map view is drawn from its best estimate: its answer
-        report.add(
-            f"Site: {case} — map view{own}", figure(files["map.png"], caption("site_map", case=case)), folded=folded
-        )
+        report.add(f"Site: {case} — map view", figure(files["map.png"], caption("site_map", case=case)), folded=folded)
     exceedance = json.loads(files["exceedance.json"].read_text())
     zoning = json.loads(files["zoning.json"].read_text())
     distances = pd.DataFrame(
@@ -271,59 +269,62 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
     return line + ".", excluded
 
 
-def cautions(record: dict[str, Any], key: str, p: str | None, entry: dict[str, Any]) -> str:
+def cautions(record: dict[str, Any], p: str | None, upper: float | None, mesh_step: float | None) -> str:
     """Why to read one number of the answer with care, in a few words ("" where nothing is known against it):
-    an interval these runs leave open, a mesh step that rests on the cheap route's regressions beyond the
-    pairs, a mean left at the accurate mesh, a best estimate by the MPM alone."""
+    a best estimate by the MPM alone, a mean left at the accurate mesh, a tail distance whose mesh step is
+    modelled (beyond the pairs, where fewer than one is expected past P), an interval these runs leave open."""
     said = []
     if record.get("route_applied") == "plain MPM":
         said.append(f"the MPM alone over {record['n_paired']} realizations: the cheap route does not pay")
     if "converged" in record:
         pairs = record["converged"]["n_pairs"]
-        if entry.get("mesh_step") is None:
+        if mesh_step is None:
             said.append(f"at {record['high_cell_size_m']:g} m cells: no convergence order measured")
         elif p is not None and float(p) <= TAIL_PROBABILITY:
             beyond = f" beyond the {pairs} pairs" if pairs * float(p) < 1.0 else ""
             said.append(f"mesh step modelled{beyond}: {TAIL_COVERAGE}")
-    if p is not None and (entry.get("upper") is None or entry.get("open_above")):
+    if p is not None and upper is None:
         said.append("open above: these runs do not bound it")
     return "; ".join(said)
 
 
+def band_ends(curve: dict[str, Any], p: str, entry: dict[str, Any]) -> tuple[float | None, float | None]:
+    """Where the band of a corrected exceedance curve crosses P: the distance's interval at the accurate mesh
+    (its upper end None where the runs leave it open above)."""
+    lower = distance_at(curve["d_m"], curve["lower"], float(p))
+    return lower, None if entry.get("open_above") else distance_at(curve["d_m"], curve["upper"], float(p))
+
+
 def headline_rows(record: dict[str, Any]) -> list[dict[str, Any]]:
-    """The answer, one row per number: the best estimate with its interval and the mesh it stands for."""
-    high = record["high_cell_size_m"]
-    rows = []
-    if "converged" in record:
-        c = record["converged"]
-        for key, entries in c["distances"].items():
-            for p, d in entries.items():
-                mesh = "converged" if d.get("mesh_step") is not None else f"{high:g} m"
-                rows.append((f"{key} exceeded with P {p}", d["estimate"], d["lower"], d["upper"], mesh, key, p, d))
-        for key, m in c["means"].items():
-            mesh = "converged" if m["mesh_step"] is not None else f"{high:g} m"
-            rows.append((f"mean {key}", m["estimate"], m["lower"], m["upper"], mesh, key, None, m))
-    else:
-        for key, curve in record["exceedance"].items():
-            for p, d in curve["distances"].items():
-                upper = None if d.get("open_above") else distance_at(curve["d_m"], curve["upper"], float(p))
-                band = {"upper": upper, "open_above": d.get("open_above")}
-                lower = distance_at(curve["d_m"], curve["lower"], float(p))
-                rows.append((f"{key} exceeded with P {p}", d["corrected"], lower, upper, f"{high:g} m", key, p, band))
-        for key, m in record["means"].items():
-            rows.append((f"mean {key}", m["estimate"], m["lower"], m["upper"], f"{high:g} m", key, None, m))
+    """The answer, one row per number: the best estimate with its interval, the mesh it stands for (converged
+    where a mesh step was taken) and :func:`cautions`."""
     names = {"runout_m": "runout R (m)", "volume_m2": "volume V (m²)", "influence_m": "influence I (m)"}
-    return [
-        {
-            "quantity": name.replace(key, names.get(key, key)),
+    high = record["high_cell_size_m"]
+
+    def row(key: str, p: str | None, value: Any, lower: Any, upper: Any, mesh_step: float | None) -> dict[str, Any]:
+        return {
+            "quantity": f"{names.get(key, key)} exceeded with P {p}"
+            if p is not None
+            else f"mean {names.get(key, key)}",
             "best estimate": value,
             f"[{record['confidence']:.0%}": lower,
             "interval]": upper,
-            "mesh": mesh,
-            "read with care": cautions(record, key, p, entry),
+            "mesh": "converged" if mesh_step is not None else f"{high:g} m",
+            "read with care": cautions(record, p, upper, mesh_step),
         }
-        for name, value, lower, upper, mesh, key, p, entry in rows
-    ]
+
+    if "converged" in record:
+        c = record["converged"]
+        return [
+            row(key, p, d["estimate"], d["lower"], d["upper"], d.get("mesh_step"))
+            for key, entries in c["distances"].items()
+            for p, d in entries.items()
+        ] + [row(key, None, m["estimate"], m["lower"], m["upper"], m["mesh_step"]) for key, m in c["means"].items()]
+    return [
+        row(key, p, d["corrected"], *band_ends(curve, p, d), None)
+        for key, curve in record["exceedance"].items()
+        for p, d in curve["distances"].items()
+    ] + [row(key, None, m["estimate"], m["lower"], m["upper"], None) for key, m in record["means"].items()]
 
 
 def answer_section(report: Report, case: str, files: dict[str, Path]) -> None:
@@ -394,8 +395,7 @@ def corrected_table(record: dict[str, Any]) -> list[str]:
             "cheap route": d["uncorrected"],
             step: difference(d["corrected"], d["uncorrected"]),
             "= best estimate": d["corrected"],
-            "[lower": distance_at(curve["d_m"], curve["lower"], float(p)),
-            "upper]": None if d.get("open_above") else distance_at(curve["d_m"], curve["upper"], float(p)),
+            **dict(zip(("[lower", "upper]"), band_ends(curve, p, d))),
         }
         for key, curve in record["exceedance"].items()
         for p, d in curve["distances"].items()
