@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from rgns.hazard.exceedance import DISTANCE_STEP_M, sample_distance
+from rgns.hazard.exceedance import sample_distance
 
 ZONE_LEVELS = ("extremely high", "high", "moderate", "low", "extremely low")
 DEFAULT_THRESHOLDS = (0.9, 0.5, 0.1, 0.01)
@@ -272,7 +272,7 @@ def exceedance_distances(
             continue
         lower, upper = quantile_interval(sample, 1.0 - p, confidence)
         missing = [name for name, bound in (("lower", lower), ("upper", upper)) if bound is None]
-        note = f"empirical exceedance curve's crossing of {p:g} (linear between grid distances {DISTANCE_STEP_M:g} m apart) of n = {n}"
+        note = f"empirical exceedance curve's crossing of {p:g} (linear between the sample's values) of n = {n}"
         if missing:
             note += f"; {' and '.join(missing)} {confidence:.0%} bound needs more realizations"
         results.append(ExceedanceDistance(float(p), sample_distance(sample, p), lower, upper, True, note))
