@@ -68,9 +68,14 @@ def ends(entry: list[float | None], digits: int = 2) -> str:
     return f"{value} m [{lower}, {upper}]"
 
 
+def bracketed(entry: list[float], digits: int = 3, sign: str = "") -> str:
+    """'v [lo, hi]' of [value, lower, upper] (``sign`` "+": the value's sign always shown)."""
+    value, lower, upper = entry
+    return f"{value:{sign}.{digits}f} [{lower:.{digits}f}, {upper:.{digits}f}]"
+
+
 def r2(entry: dict[str, Any]) -> str:
-    value, lower, upper = entry["r2"]
-    return f"{value:.3f} [{lower:.3f}, {upper:.3f}]"
+    return bracketed(entry["r2"])
 
 
 def half(entry: list[float | None]) -> float:
@@ -222,24 +227,23 @@ def endstate_untouched() -> str:
 
 
 def untouched_subset(record: dict[str, Any]) -> tuple[str, dict[str, Any]]:
-    """cheap_route.json's subset of realizations no choice touched: its name and its rows per model."""
+    """cheap_route.json's subset of realizations no choice touched: its range ("64-127") and its rows per model."""
     name = next(name for name in record["subsets"] if name.startswith("untouched"))
-    return name, record["subsets"][name]
+    return name.split("(")[1].rstrip(")"), record["subsets"][name]
 
 
 def cheap_route_choice() -> str:
     """README: which surrogate is the correction's cheap route, by its correlation with the 0.5 m MPM on
     realizations no choice touched."""
     record = result("cheap_route.json")
-    name, models = untouched_subset(record)
+    realizations, models = untouched_subset(record)
     best, second = record["best"]["model"], record["best"]["second"]
     r_best, r_general = models[best]["runout_m"]["r_0.5"], models["endstate_general"]["runout_m"]["r_0.5"]
     return (
-        f"The correction's cheap route, {best}, against the 0.5 m MPM: runout r {r_best[0]:.3f} [{r_best[1]:.3f}, {r_best[2]:.3f}] against the general model's "
-        f"{r_general[0]:.3f} [{r_general[1]:.3f}, {r_general[2]:.3f}] on realizations {name.split('(')[1].rstrip(')')} "
-        f"of seed {record['seed']}, which no choice touched; the best by a paired bootstrap of the difference "
-        f"from the next, {second} ({record['best']['r_difference'][0]:+.3f} [{record['best']['r_difference'][1]:.3f}, "
-        f"{record['best']['r_difference'][2]:.3f}]): `{record['command']}` at {record['commit']}, "
+        f"The correction's cheap route, {best}, against the 0.5 m MPM: runout r {bracketed(r_best)} against the "
+        f"general model's {bracketed(r_general)} on realizations {realizations} of seed {record['seed']}, which no "
+        f"choice touched; the best by a paired bootstrap of the difference from the next, {second} "
+        f"({bracketed(record['best']['r_difference'], sign='+')}): `{record['command']}` at {record['commit']}, "
         "`benchmarks/results/cheap_route.md`."
     )
 
@@ -247,9 +251,9 @@ def cheap_route_choice() -> str:
 def tuned_untouched() -> str:
     """The tuned model's card: its agreement with the 0.5 m MPM itself on realizations no choice touched."""
     record = result("cheap_route.json")
-    name, models = untouched_subset(record)
+    realizations, models = untouched_subset(record)
     rows = models["endstate_tuned"]
-    first, last = name.split("(")[1].rstrip(")").split("-")
+    first, last = realizations.split("-")
     lines = [
         f"Case 1, realizations {first}–{last} of seed {record['seed']} (the default Monte Carlo's), which no training "
         "or choice of this model touched (0–63 were the pool it was judged on), against the MPM at 0.5 m cells "
@@ -264,10 +268,7 @@ def tuned_untouched() -> str:
     ]
     for metric in ("runout_m", "volume_m2", "influence_m"):
         row = rows[metric]
-        cells = [
-            f"{row[key][0]:.{digits}f} [{row[key][1]:.{digits}f}, {row[key][2]:.{digits}f}]"
-            for key, digits in (("r_0.5", 3), ("R2_0.5", 3), ("bias_0.5", 2))
-        ]
+        cells = [bracketed(row[key], digits) for key, digits in (("r_0.5", 3), ("R2_0.5", 3), ("bias_0.5", 2))]
         lines.append(f"| {metric.split('_')[0]} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -228,10 +228,8 @@ def test_each_hazard_figure_writes_a_png(tmp_path):
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_the_exceedance_figure_draws_each_metrics_own_curve_and_the_mean_field_where_given(tmp_path, monkeypatch):
-    """What the figure shows, read back from its axes: each metric on the axes titled with its name, its
-    empirical P(X > x) as the step line (floored at 1 / 2n on the log axis), the mean-field value as a
-    vertical line only where one is given."""
+def drawn_figures(monkeypatch) -> list:
+    """The figures saved while the test runs (each kept open for reading back)."""
     drawn = []
     save = matplotlib.figure.Figure.savefig
     monkeypatch.setattr(
@@ -239,6 +237,14 @@ def test_the_exceedance_figure_draws_each_metrics_own_curve_and_the_mean_field_w
         "savefig",
         lambda figure, *args, **kwargs: (drawn.append(figure), save(figure, *args, **kwargs))[1],
     )
+    return drawn
+
+
+def test_the_exceedance_figure_draws_each_metrics_own_curve_and_the_mean_field_where_given(tmp_path, monkeypatch):
+    """What the figure shows, read back from its axes: each metric on the axes titled with its name, its
+    empirical P(X > x) as the step line (floored at 1 / 2n on the log axis), the mean-field value as a
+    vertical line only where one is given."""
+    drawn = drawn_figures(monkeypatch)
     rng = np.random.default_rng(13)
     values = {"influence distance I": rng.exponential(3.0, 200), "runout distance R": rng.exponential(8.0, 200)}
     curves = {name: exceedance_curve(v) for name, v in values.items()}
@@ -252,18 +258,6 @@ def test_the_exceedance_figure_draws_each_metrics_own_curve_and_the_mean_field_w
         np.testing.assert_array_equal(step.get_ydata(), np.maximum(curve.probability, 1.0 / (2 * curve.n)))
         mean_field = [line for line in axis.get_lines() if line.get_label() == "mean-field"]
         assert [line.get_xdata()[0] for line in mean_field] == ([6.0] if name == "runout distance R" else [])
-
-
-def drawn_figures(monkeypatch) -> list:
-    """The figures saved while the test runs (each kept open for reading back)."""
-    drawn = []
-    save = matplotlib.figure.Figure.savefig
-    monkeypatch.setattr(
-        matplotlib.figure.Figure,
-        "savefig",
-        lambda figure, *args, **kwargs: (drawn.append(figure), save(figure, *args, **kwargs))[1],
-    )
-    return drawn
 
 
 def test_the_zoning_figure_draws_each_zone_where_the_zones_put_it_in_its_colour(tmp_path, monkeypatch):
