@@ -204,6 +204,51 @@ def test_zones_geojson_reads_back_in_gdal_with_the_crs_on_the_line_and_in_order(
     assert outputs["map"].stat().st_size > 10_000
 
 
+def test_the_map_view_draws_each_zone_on_the_section_in_its_levels_colour(tmp_path, monkeypatch):
+    """Read back from the map's axes: one coloured segment per GeoJSON zone, on the zone's own coordinates, in
+    the colour of its level (red for extremely high … green for extremely low, as the section's zoning figure),
+    the legend naming each level with its probability range, the CRS and a scale bar. Fails with the colours
+    reversed or the segments drawn from the wrong zone."""
+    import matplotlib.collections
+    import matplotlib.pyplot as plt
+
+    from rgns.hazard.plots import ZONE_COLOURS
+    from rgns.hazard.statistics import ZONE_LEVELS
+
+    kept = []
+    monkeypatch.setattr(plt, "close", kept.append)
+    dem = write_dem(tmp_path / "dem.tif")
+    line = np.array([[WEST + 2.5, NORTH - 3.5], [WEST + 20.5, NORTH - 15.5], [WEST + 50.5, NORTH - 12.5]])
+    section = sample_dem(dem, line, CRS, 1.0)
+    outputs = {"zones": tmp_path / "z.geojson", "exceedance": tmp_path / "e.csv", "map": tmp_path / "map.png"}
+    settings = {
+        "name": "hill",
+        "chainage_from_m": 5.0,
+        "domain_length_m": 40.0,
+        "resolution_m": 0.25,
+        "confidence": 0.95,
+        "section": {"dem": str(dem)},
+    }
+    features = write_site_gis(_table(), ZONING, section, settings, outputs)["features"]
+    (figure,) = kept
+    (axis,) = [a for a in figure.axes if a.get_legend() is not None]
+    (zones,) = [
+        c
+        for c in axis.collections
+        if isinstance(c, matplotlib.collections.LineCollection)
+        and c.get_segments()
+        and len(c.get_segments()) == len(features)
+    ]
+    for segment, colour, feature in zip(zones.get_segments(), zones.get_colors(), features, strict=True):
+        np.testing.assert_allclose(segment, feature["geometry"]["coordinates"])
+        level = feature["properties"]["level"]
+        assert tuple(colour) == pytest.approx(matplotlib.colors.to_rgba(ZONE_COLOURS[ZONE_LEVELS.index(level)]))
+    legend = [text.get_text() for text in axis.get_legend().get_texts()]
+    assert legend == [f"{level} ({ZONING['levels'][level]})" for level in ZONE_LEVELS]
+    texts = [text.get_text() for text in axis.texts]
+    assert f"CRS {CRS}" in texts and any(text.endswith(" m") for text in texts)
+
+
 def test_a_csv_section_has_no_map_crs_and_its_geojson_says_it_is_in_the_local_frame(tmp_path):
     csv = tmp_path / "section.csv"
     pd.DataFrame({"chainage_m": [0.0, 10.0, 60.0], "elevation_m": [105.0, 105.0, 99.0]}).to_csv(csv, index=False)

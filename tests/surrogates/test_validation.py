@@ -205,3 +205,41 @@ def test_the_figures_name_the_simulator_that_ran_and_show_no_path_it_has_not(tmp
     assert labels == ["MPM (true)", "end-state surrogate (end state)"]
     surrogate_lines = [line for line in energy.axes[0].get_lines() if line.get_label().startswith("end-state")]
     assert len(surrogate_lines) == 1 and len(surrogate_lines[0].get_xdata()) == 2
+
+
+def test_the_parity_and_histogram_figures_draw_each_cases_own_pairs_and_r2(tmp_path, monkeypatch):
+    """Read back from the axes: per metric, each case's points are its ok rows' (MPM, simulator) values (a
+    diverged rollout left out), its legend gives R² of exactly those pairs, the 1:1 line spans them all; each
+    histogram counts every ok row once, the MPM's and the simulator's on common bins. Fails with the axes
+    swapped, the diverged row drawn, or the bins apart."""
+    import rgns.surrogates.validation_plots as plots
+
+    kept = []
+    monkeypatch.setattr(plots.plt, "close", kept.append)
+    pairs_by_case = {"case1": _pairs(7, seed=4), "case2": _pairs(6, seed=5, statuses=["ok"] * 5 + ["diverged: x"])}
+    plot_parity(pairs_by_case, tmp_path / "parity.png")
+    plot_histograms(pairs_by_case, tmp_path / "histograms.png")
+    parity, histograms = kept
+    for axis, stem in zip(parity.axes, ("runout_m", "volume_m2", "influence_m")):
+        everything = []
+        for case, collection in zip(pairs_by_case, axis.collections):
+            ok = pairs_by_case[case][pairs_by_case[case]["gns_status"] == "ok"]
+            expected = ok[[f"{stem}_mpm", f"{stem}_gns"]].to_numpy(float)
+            np.testing.assert_allclose(collection.get_offsets(), expected)
+            r2 = (
+                1
+                - ((expected[:, 1] - expected[:, 0]) ** 2).sum() / ((expected[:, 0] - expected[:, 0].mean()) ** 2).sum()
+            )
+            assert collection.get_label() == f"{case} (R² = {r2:.3f})"
+            everything.append(expected)
+        (diagonal,) = [line for line in axis.get_lines() if line.get_label() == "1:1"]
+        stacked = np.concatenate(everything)
+        np.testing.assert_allclose(diagonal.get_xdata(), [stacked.min(), stacked.max()])
+    for row, case in zip(np.reshape(histograms.axes, (2, 3)), pairs_by_case):
+        ok = (pairs_by_case[case]["gns_status"] == "ok").sum()
+        for axis in row:
+            mpm, simulator = axis.containers[0], axis.patches[-1]
+            assert sum(bar.get_height() for bar in mpm) == ok
+            edges = [bar.get_x() for bar in mpm] + [mpm[-1].get_x() + mpm[-1].get_width()]
+            outline = simulator.get_path().vertices[:, 0]
+            assert min(outline) == pytest.approx(edges[0]) and max(outline) == pytest.approx(edges[-1])
