@@ -3,7 +3,8 @@
     OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --replicates 200 --seed 20261204
     OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --sabotage --replicates 100 --seed 20261204
     .venv/bin/python benchmarks/pair_coverage.py --report       # the tables from what the json holds
-    (each with --population finite: the finite population's answers, below)
+    (each with --population finite: the finite population's answers, below; with --strata 0.5 0.9 0.99 the
+    pairs drawn in strata of the cheap runout instead of the config's design, written to *_strata.json / .md)
 
 Design under test: the default config's (config/config.yaml) multi-fidelity chain for case 1: N =
 montecarlo.realizations cheap runs by montecarlo.fidelity.cheap (tuned: rgns/models/endstate_tuned.pt),
@@ -592,7 +593,8 @@ def write_report(result: dict, path: Path) -> None:
     """The md from the json, to ``path``."""
     meta = result["meta"]
     lines = [
-        "# Coverage of the default design: 10,000 cheap realizations, 32 random MPM pairs (case 1)",
+        f"# Coverage of the {'stratified' if meta['design']['strata'] else 'default'} design: 10,000 cheap "
+        f"realizations, 32 {'stratified' if meta['design']['strata'] else 'random'} MPM pairs (case 1)",
         "",
         "**The population is SYNTHETIC, CALIBRATED ON REAL PAIRS** (no GPU ran 10,000 MPM pairs): the cheap values "
         f"are the tuned end-state surrogate's on case 1's realizations 0-{meta['population'] - 1} (run here as the "
@@ -610,7 +612,8 @@ def write_report(result: dict, path: Path) -> None:
         "```",
         "",
         f"Design (config/config.yaml): N = {meta['design']['realizations']} cheap ({meta['design']['cheap']}), "
-        f"{meta['design']['paired']} pairs, strata {meta['design']['strata']} (a simple random subsample), accurate "
+        f"{meta['design']['paired']} pairs, strata {meta['design']['strata']} "
+        f"({'in strata of the cheap runout at these quantiles' if meta['design']['strata'] else 'a simple random subsample'}), accurate "
         f"MPM at {meta['design']['high_cell_size_m']} m, coarse partner at {meta['design']['coarse_cell_size_m']} m, "
         f"order of the runout {meta['design']['order'][1]} [{meta['design']['order'][0]}, {meta['design']['order'][2]}]"
         f", confidence {meta['design']['confidence']}. Costs given to the allocation: {meta['cost']['high_s']:.1f} s "
@@ -794,8 +797,19 @@ def main() -> None:
         "superpopulation's); local: the same with residuals from the real realizations nearest in cheap runout; "
         "finite: the members' own residuals, drawn once (the answers the finite population's)",
     )
+    parser.add_argument(
+        "--strata",
+        type=float,
+        nargs="*",
+        default=None,
+        help="the cheap runout's quantiles that bound the pairs' strata (montecarlo.fidelity.strata; default: "
+        "the config's); a design other than the config's writes beside the population's files, '_strata' added",
+    )
     args = parser.parse_args()
     result_path, report_path = POPULATIONS[args.population]
+    if args.strata is not None:
+        suffix = "_strata" if args.strata else "_simple"
+        result_path, report_path = (p.with_name(p.stem + suffix + p.suffix) for p in (result_path, report_path))
     if args.report:  # the summaries recomputed from the replicates, then the md
         result = json.loads(result_path.read_text())
         for name in MODES:
@@ -810,6 +824,8 @@ def main() -> None:
     torch.set_num_threads(1)
     began = time.perf_counter()
     settings, population, truth, meta = prepare(args)
+    if args.strata is not None:
+        settings["strata"] = meta["design"]["strata"] = list(args.strata)
     name = "sabotage" if args.sabotage else "normal"
     if args.sabotage:
         population = sabotaged(population, args.seed)  # the answers stand: the MPM values are the same
@@ -818,7 +834,9 @@ def main() -> None:
         result = {}  # another population: start over
     command = (
         f"OMP_NUM_THREADS=1 nice -n 19 .venv/bin/python benchmarks/pair_coverage.py --replicates {args.replicates} "
-        f"--seed {args.seed} --population {args.population}" + (" --sabotage" if args.sabotage else "")
+        f"--seed {args.seed} --population {args.population}"
+        + (" --sabotage" if args.sabotage else "")
+        + ("" if args.strata is None else " --strata " + " ".join(f"{q:g}" for q in args.strata))
     )
     commands = [c for c in result.get("meta", {}).get("commands", []) if ("--sabotage" in c) != args.sabotage]
     result["meta"] = meta | {"commands": sorted([*commands, command], key=lambda c: "--sabotage" in c)}
