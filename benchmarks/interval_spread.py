@@ -68,21 +68,22 @@ def replicate(population: dict, settings: dict, cost: dict, seed: int, number: i
     finally:
         pc.fast_normal(False)
     accurate = [curve["distances"][str(p)]["corrected"] for p in PROBABILITIES]
-    alternative: dict[str, list] = {}
-    if not settings["strata"]:
-        deviations = residual_resampling(
-            fine["runout_m"].to_numpy(float),
-            partner["runout_m"].to_numpy(float),
-            cheap["runout_m"].to_numpy(float),
-            np.asarray(curve["d_m"]),
-            float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"]),
-            order,
-            settings["confidence"],
-            number,
-        )["deviation_quantiles"]
-        estimates = [accurate, joint.step[0].tolist(), (np.asarray(accurate) + joint.step[0]).tolist()]
-        for name, (low_dev, high_dev), values in zip(("accurate", "step", "converged"), deviations, estimates):
-            alternative[name] = [[e - hi, e - lo] for e, lo, hi in zip(values, low_dev, high_dev)]
+    deviations = residual_resampling(
+        fine["runout_m"].to_numpy(float),
+        partner["runout_m"].to_numpy(float),
+        cheap["runout_m"].to_numpy(float),
+        np.asarray(curve["d_m"]),
+        float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"]),
+        order,
+        settings["confidence"],
+        number,
+        strata,
+    )["deviation_quantiles"]
+    estimates = [accurate, joint.step[0].tolist(), (np.asarray(accurate) + joint.step[0]).tolist()]
+    alternative = {
+        name: [[e - hi, e - lo] for e, lo, hi in zip(values, low_dev, high_dev)]
+        for name, (low_dev, high_dev), values in zip(("accurate", "step", "converged"), deviations, estimates)
+    }
     return {
         "residual_resampling": alternative,
         "accurate": accurate,
@@ -103,14 +104,16 @@ def residual_resampling(
     order: float,
     confidence: float,
     seed: int,
+    strata: np.ndarray | None = None,
     resamples: int = 1000,
 ) -> dict[str, list[list[float]]]:
-    """The alternative measured beside the pipeline's pairs bootstrap (simple random pairs only): model-based
-    resampling (Davison & Hinkley 1997, section 6.2.3). Each resample draws the pairs' cheap values with
-    replacement and gives each an accurate value at both meshes from its regression line (fitted once) plus
-    one pair's standardized residuals, drawn with replacement and jointly for the two meshes, at the spread
-    the residual-spread model puts at that cheap value (rgns.fidelity.multifidelity.spread_shape), scaled by
-    sqrt(n / (n - 2)) for the fit's two parameters. A resample's pairs can then exceed a tail threshold that
+    """The alternative measured beside the pipeline's pairs bootstrap: model-based resampling (Davison & Hinkley
+    1997, section 6.2.3). Each resample draws the pairs' cheap values with replacement (within their design
+    stratum: ``strata``, a label per row, pairs first; None: one) and gives each an accurate value at both meshes
+    from its (design-weighted) regression line, fitted once, plus one pair's standardized residuals, drawn with
+    replacement (with the design weights as probabilities) and jointly for the two meshes, at the spread the
+    residual-spread model puts at that cheap value (rgns.fidelity.multifidelity.spread_shape), scaled by
+    sqrt(n / (n - 2)) for the fit's two parameters (n the design's effective count). A resample's pairs can then exceed a tail threshold that
     no pair of the sample reached, about as often as new pairs would under the fitted model; the pairs
     bootstrap cannot. Every resample is estimated as the pipeline estimates (corrected curve's crossing,
     modelled crossings' step, the unpaired runs binned) → per part (accurate, step, converged) the quantiles
@@ -121,18 +124,26 @@ def residual_resampling(
     n = len(fine)
     cheap_p = cheap[:n]
     rest, counts = multifidelity.binned(cheap[n:, None], multifidelity.BINS)
-    centred = cheap_p - cheap_p.mean()
-    weights = np.full(n, 1.0 / n)
+    design = multifidelity.design_weights(strata, n)
+    effective = 1.0 / float((design * design).sum())
+    centred = cheap_p - (cheap_p.mean() if strata is None else design @ cheap_p)
     fitted, standardized, shapes = [], [], []
     for values in (fine, partner):
-        slope, intercept = np.polyfit(cheap_p, values, 1)
+        slope, intercept = np.polyfit(cheap_p, values, 1, w=None if strata is None else np.sqrt(design))
         residual = values - (intercept + slope * cheap_p)
-        shape = multifidelity.spread_shape(np.abs(residual), centred, weights, centred)
+        shape = multifidelity.spread_shape(np.abs(residual), centred, design, centred)
         fitted.append((intercept, slope))
-        standardized.append(residual / shape * np.sqrt(n / (n - 2.0)))
+        standardized.append(residual / shape * np.sqrt(effective / (effective - 2.0)))
         shapes.append(shape)
     rng = np.random.default_rng(seed)
-    picks, draws = rng.integers(0, n, (resamples, n)), rng.integers(0, n, (resamples, n))
+    if strata is None:
+        picks, draws = rng.integers(0, n, (resamples, n)), rng.integers(0, n, (resamples, n))
+    else:
+        picks = np.empty((resamples, n), dtype=int)
+        for label in np.unique(strata[:n]):
+            members = np.flatnonzero(strata[:n] == label)
+            picks[:, members] = members[rng.integers(0, members.size, (resamples, members.size))]
+        draws = rng.choice(n, size=(resamples, n), p=design)
     targets = np.asarray(PROBABILITIES)
     bracket = (float(d_m[0]), float(d_m[-1]))
     parts: list[np.ndarray] = []
@@ -140,7 +151,7 @@ def residual_resampling(
         pick, draw = picks[start : start + 16], draws[start : start + 16]
         low_p = cheap_p[pick]
         meshes = [a + b * low_p + shape[pick] * z[draw] for (a, b), shape, z in zip(fitted, shapes, standardized)]
-        w = np.full(pick.shape, 1.0 / n)
+        w = design[pick]
         curve = multifidelity.regression_point_estimate(
             meshes[0][..., None], low_p[..., None], rest, d_m, weights=w, low_u_counts=counts
         )
@@ -149,8 +160,7 @@ def residual_resampling(
         step = (ends[0] - ends[1]) / (ratio**order - 1.0)
         parts.append(np.stack([accurate, step, accurate + step]))
     values = np.concatenate(parts, axis=1)  # [3, resamples, P]
-    weights = np.full(n, 1.0 / n)
-    model = [me.modelled_crossing(mesh, cheap_p, rest, targets, bracket, weights, counts) for mesh in (fine, partner)]
+    model = [me.modelled_crossing(mesh, cheap_p, rest, targets, bracket, design, counts) for mesh in (fine, partner)]
     step = (model[0] - model[1]) / (ratio**order - 1.0)
     centre = np.stack([model[0], step, model[0] + step])[:, None, :]  # what the resamples estimate, under the fit
     level = multifidelity.expanded_level(confidence, n)
@@ -291,17 +301,19 @@ def main() -> None:
         + (f" --strata {' '.join(f'{q:g}' for q in args.strata)}" if args.strata else "")
     )
     rows: list[dict] = []
+    made_at = commit()
     for number in range(args.replicates):
         tick = time.perf_counter()
         rows.append(replicate(population, settings, meta["cost"], args.seed, number))
         print(f"{name}: replicate {number + 1} of {args.replicates}, {time.perf_counter() - tick:.1f} s", flush=True)
-    result = json.loads(OUT.read_text()) if OUT.exists() else {"designs": {}, "truth": {}}  # others may have written
-    result["truth"][args.population] = truth
-    design = result["designs"].setdefault(name, {"population": args.population, "runs": []})
-    design["runs"] = [run for run in design["runs"] if run["command"] != command]
-    design["runs"].append({"command": command, "commit": commit(), "rows": rows})
-    Path(OUT).write_text(json.dumps(result, indent=1) + "\n")
-    write_report(result)
+        if number + 1 == args.replicates:  # written once whole: a run cut short leaves the last whole one
+            result = json.loads(OUT.read_text()) if OUT.exists() else {"designs": {}, "truth": {}}
+            result["truth"][args.population] = truth
+            design = result["designs"].setdefault(name, {"population": args.population, "runs": []})
+            design["runs"] = [run for run in design["runs"] if run["command"] != command]
+            design["runs"].append({"command": command, "commit": made_at, "rows": rows})
+            Path(OUT).write_text(json.dumps(result, indent=1) + "\n")
+    write_report(json.loads(OUT.read_text()))
     print(REPORT.read_text())
 
 
