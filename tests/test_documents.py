@@ -54,3 +54,34 @@ def test_every_commit_a_document_cites_is_in_the_history():
         if subprocess.run(["git", "cat-file", "-e", f"{token}^{{commit}}"], cwd=repo, capture_output=True).returncode
     ]
     assert len(cited) >= 5 and missing == []
+
+
+def test_each_current_benchmark_row_names_its_result_file_at_that_files_last_commit():
+    """docs/benchmarks.md's current rows say which result file made them and at which commit; a re-run that
+    commits a new file leaves the row stale unless the row follows it (mesh_levels.json had moved on to b17ca46
+    under a row that still said b0415a2)."""
+    repo = documents.REPO
+    git = subprocess.run(["git", "rev-parse", "--is-shallow-repository"], cwd=repo, capture_output=True, text=True)
+    if git.returncode != 0 or git.stdout.strip() != "false":
+        pytest.skip("not a full git clone: the result files' commits cannot be looked up")
+    text = (repo / "docs" / "benchmarks.md").read_text()
+    current = [part for part in re.split(r"^## ", text, flags=re.M) if part.startswith("Current")]
+    rows = [line for part in current for line in part.splitlines() if re.match(r"\| (?!what |---)", line)]
+    cited = [
+        (name, commit)
+        for row in rows
+        for name, commit in re.findall(r"`([\w.]+\.json)` ([0-9a-f]{7,10})\b", row.rstrip(" |").rsplit(" | ", 1)[1])
+    ]
+    unnamed = [row.split(" | ")[0] for row in rows if "`" not in row.rstrip(" |").rsplit(" | ", 1)[1]]
+    assert len(cited) >= 8 and all("no result file kept" in row for row in rows if row.split(" | ")[0] in unnamed)
+
+    def full(reference: list[str]) -> str:
+        return subprocess.run(["git", *reference], cwd=repo, capture_output=True, text=True, check=True).stdout.strip()
+
+    stale_rows = [
+        f"{name}: the row says {commit}, the file was last committed in {last[:10]}"
+        for name, commit in cited
+        if full(["rev-parse", f"{commit}^{{commit}}"])
+        != (last := full(["log", "-1", "--format=%H", "--", f"benchmarks/results/{name}"]))
+    ]
+    assert stale_rows == []
