@@ -2,6 +2,7 @@
 
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/interval_spread.py --seed 777 --replicates 30
     OMP_NUM_THREADS=1 .venv/bin/python benchmarks/interval_spread.py --seed 787 --replicates 30 --strata 0.5 0.9 0.99
+    .venv/bin/python benchmarks/interval_spread.py --passes      # P 0.01 estimates by pairs past the answer
     .venv/bin/python benchmarks/interval_spread.py --report      # the md from every run the json holds
 
 A replicate is benchmarks/pair_coverage.py's (its population, ``--population``, default local: the real pairs'
@@ -13,8 +14,11 @@ mesh step, and the intervals the pipeline's bootstraps give them: the corrected 
 at the order's value (the converged distance and the step) and at order 60 (a step of 2^-60 of the difference:
 the accurate part alone, from the same resamples). Over the replicates, each part's standard deviation is set
 beside the spread its interval implies (mean half-width / z, z = 1.96): an interval that implies less spread
-than the estimate has cannot cover 95 %. Seeds 777-799 are development seeds: they chose nothing and nothing
-was chosen on them but where to look next; coverage is pair_coverage.py's, on its own seeds.
+than the estimate has cannot cover 95 %. Beside them, on the same replicates, the alternative
+:func:`residual_resampling` (model-based resampling of the pairs). ``--passes`` splits the recorded P 0.01
+estimates by how many of their pairs passed the population's answer. Seeds 777-799 are development seeds: they
+chose nothing and nothing was chosen on them but where to look next; coverage is pair_coverage.py's, on its own
+seeds.
 """
 
 from __future__ import annotations
