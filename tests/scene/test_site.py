@@ -169,7 +169,8 @@ def _table() -> pd.DataFrame:
     )
 
 
-def test_zones_geojson_reads_back_in_gdal_with_the_crs_on_the_line_and_in_order(tmp_path):
+def _hill_site(tmp_path: Path) -> tuple[np.ndarray, Section, dict, dict]:
+    """A DEM section line with a bend, the site's settings (modelled from chainage 5 m over 40 m) and outputs."""
     dem = write_dem(tmp_path / "dem.tif")
     line = np.array([[WEST + 2.5, NORTH - 3.5], [WEST + 20.5, NORTH - 15.5], [WEST + 50.5, NORTH - 12.5]])
     section = sample_dem(dem, line, CRS, 1.0)
@@ -186,6 +187,11 @@ def test_zones_geojson_reads_back_in_gdal_with_the_crs_on_the_line_and_in_order(
         "confidence": 0.95,
         "section": {"dem": str(dem)},
     }
+    return line, section, settings, outputs
+
+
+def test_zones_geojson_reads_back_in_gdal_with_the_crs_on_the_line_and_in_order(tmp_path):
+    line, section, settings, outputs = _hill_site(tmp_path)
     write_site_gis(_table(), ZONING, section, settings, outputs)
     meta, lines, attributes = _linestrings(outputs["zones"])
     assert meta["crs"] == CRS and meta["geometry_type"] == "LineString"
@@ -217,18 +223,7 @@ def test_the_map_view_draws_each_zone_on_the_section_in_its_levels_colour(tmp_pa
 
     kept = []
     monkeypatch.setattr(plt, "close", kept.append)
-    dem = write_dem(tmp_path / "dem.tif")
-    line = np.array([[WEST + 2.5, NORTH - 3.5], [WEST + 20.5, NORTH - 15.5], [WEST + 50.5, NORTH - 12.5]])
-    section = sample_dem(dem, line, CRS, 1.0)
-    outputs = {"zones": tmp_path / "z.geojson", "exceedance": tmp_path / "e.csv", "map": tmp_path / "map.png"}
-    settings = {
-        "name": "hill",
-        "chainage_from_m": 5.0,
-        "domain_length_m": 40.0,
-        "resolution_m": 0.25,
-        "confidence": 0.95,
-        "section": {"dem": str(dem)},
-    }
+    _, section, settings, outputs = _hill_site(tmp_path)
     features = write_site_gis(_table(), ZONING, section, settings, outputs)["features"]
     (figure,) = kept
     (axis,) = [a for a in figure.axes if a.get_legend() is not None]
