@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -56,14 +55,15 @@ def replicate(population: dict, settings: dict, cost: dict, seed: int, number: i
         curve = pc.runout_correction(low, high, settings, cost, number, plan)["exceedance"]["runout_m"]
         fine, partner, cheap = me.nested_levels(low, high, coarse)
         strata = row_strata(plan, cheap["index"].tolist(), len(fine))
+        levels = [t["runout_m"].to_numpy(float) for t in (fine, partner, cheap)]
+        d_m = np.asarray(curve["d_m"])
+        ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
         order = float(settings["mesh_order"]["runout_m"][1])
         joint = me.distance_intervals(
-            fine["runout_m"].to_numpy(float),
-            partner["runout_m"].to_numpy(float),
-            cheap["runout_m"].to_numpy(float),
-            np.asarray(curve["d_m"]),
+            *levels,
+            d_m,
             list(PROBABILITIES),
-            float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"]),
+            ratio,
             np.array([order, ACCURATE_ONLY]),
             settings["confidence"],
             number,
@@ -72,17 +72,9 @@ def replicate(population: dict, settings: dict, cost: dict, seed: int, number: i
     finally:
         pc.fast_normal(False)
     accurate = [curve["distances"][str(p)]["corrected"] for p in PROBABILITIES]
-    deviations = residual_resampling(
-        fine["runout_m"].to_numpy(float),
-        partner["runout_m"].to_numpy(float),
-        cheap["runout_m"].to_numpy(float),
-        np.asarray(curve["d_m"]),
-        float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"]),
-        order,
-        settings["confidence"],
-        number,
-        strata,
-    )["deviation_quantiles"]
+    deviations = residual_resampling(*levels, d_m, ratio, order, settings["confidence"], number, strata)[
+        "deviation_quantiles"
+    ]
     estimates = [accurate, joint.step[0].tolist(), (np.asarray(accurate) + joint.step[0]).tolist()]
     alternative = {
         name: [[e - hi, e - lo] for e, lo, hi in zip(values, low_dev, high_dev)]
@@ -91,7 +83,7 @@ def replicate(population: dict, settings: dict, cost: dict, seed: int, number: i
     return {
         "residual_resampling": alternative,
         "accurate": accurate,
-        "band": [[distance_at(curve["d_m"], curve[end], p) for end in ("lower", "upper")] for p in PROBABILITIES],
+        "band": [[distance_at(d_m, curve[end], p) for end in ("lower", "upper")] for p in PROBABILITIES],
         "step": joint.step[0].tolist(),
         "step_interval": [[lo, hi] for lo, hi in zip(joint.step_lower[0].tolist(), joint.step_upper[0].tolist())],
         "converged_interval": [[lo, hi] for lo, hi in zip(joint.lower[0].tolist(), joint.upper[0].tolist())],
@@ -126,10 +118,13 @@ def residual_resampling(
     [e − upper, e − lower], which holds an estimate pushed out by a pair in the tail as well as one that no
     pair reached."""
     n = len(fine)
+    if strata is not None and np.unique(strata[:n]).size == 1:
+        strata = None  # a simple random design's labels (rule paired_plan gives one stratum): drawn as one
     cheap_p = cheap[:n]
     rest, counts = multifidelity.binned(cheap[n:, None], multifidelity.BINS)
     design = multifidelity.design_weights(strata, n)
     effective = 1.0 / float((design * design).sum())
+    # one stratum: the plain mean and unweighted fit, as the simple random runs in the json were drawn
     centred = cheap_p - (cheap_p.mean() if strata is None else design @ cheap_p)
     fitted, standardized, shapes = [], [], []
     for values in (fine, partner):
@@ -360,14 +355,14 @@ def main() -> None:
         tick = time.perf_counter()
         rows.append(replicate(population, settings, meta["cost"], args.seed, number))
         print(f"{name}: replicate {number + 1} of {args.replicates}, {time.perf_counter() - tick:.1f} s", flush=True)
-        if number + 1 == args.replicates:  # written once whole: a run cut short leaves the last whole one
-            result = json.loads(OUT.read_text()) if OUT.exists() else {"designs": {}, "truth": {}}
-            result["truth"][args.population] = truth
-            design = result["designs"].setdefault(name, {"population": args.population, "runs": []})
-            design["runs"] = [run for run in design["runs"] if run["command"] != command]
-            design["runs"].append({"command": command, "commit": made_at, "rows": rows})
-            Path(OUT).write_text(json.dumps(result, indent=1) + "\n")
-    write_report(json.loads(OUT.read_text()))
+    # written once whole, re-read first (another run may have written since): a run cut short leaves the last one
+    result = json.loads(OUT.read_text()) if OUT.exists() else {"designs": {}, "truth": {}}
+    result["truth"][args.population] = truth
+    design = result["designs"].setdefault(name, {"population": args.population, "runs": []})
+    design["runs"] = [run for run in design["runs"] if run["command"] != command]
+    design["runs"].append({"command": command, "commit": made_at, "rows": rows})
+    OUT.write_text(json.dumps(result, indent=1) + "\n")
+    write_report(result)
     print(REPORT.read_text())
 
 
