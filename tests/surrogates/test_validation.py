@@ -15,6 +15,7 @@ from rgns.surrogates.validation import (
     best_median_worst,
     case_agreement,
     markdown_table,
+    r_squared,
     validation_table,
 )
 from rgns.surrogates.validation_plots import plot_energy_evolution, plot_histograms, plot_parity
@@ -226,11 +227,7 @@ def test_the_parity_and_histogram_figures_draw_each_cases_own_pairs_and_r2(tmp_p
             ok = pairs_by_case[case][pairs_by_case[case]["gns_status"] == "ok"]
             expected = ok[[f"{stem}_mpm", f"{stem}_gns"]].to_numpy(float)
             np.testing.assert_allclose(collection.get_offsets(), expected)
-            r2 = (
-                1
-                - ((expected[:, 1] - expected[:, 0]) ** 2).sum() / ((expected[:, 0] - expected[:, 0].mean()) ** 2).sum()
-            )
-            assert collection.get_label() == f"{case} (R² = {r2:.3f})"
+            assert collection.get_label() == f"{case} (R² = {r_squared(expected[:, 0], expected[:, 1]):.3f})"
             everything.append(expected)
         (diagonal,) = [line for line in axis.get_lines() if line.get_label() == "1:1"]
         stacked = np.concatenate(everything)
