@@ -35,10 +35,12 @@ from rgns.fidelity.multifidelity import (
     binned,
     corrected_affected_probability,
     design_weights,
+    expanded_level,
     mean_predicted,
     predicted_exceedance,
     rearranged,
     regression_point_estimate,
+    spread_shape,
     stratified_bootstrap,
 )
 from rgns.fidelity.multilevel import extrapolated, multilevel, richardson_step
@@ -67,8 +69,11 @@ def nested_levels(
     return high.reset_index(drop=True), coarse.loc[first].reset_index(), low.loc[first + rest].reset_index()
 
 
-# bisections that find where a modelled curve falls to P: 30 halve a 40 m bracket to 4e-8 m
-BISECTIONS = 30
+# how a modelled curve's fall to P is found: 12 bisections halve a 40 m bracket to 1 cm, where the curve is a
+# straight line to ~1e-5 m, then false-position steps and a last interpolation (16 evaluations of the curve where
+# 30 bisections took 32, to the same 1e-6 m: tests/fidelity/test_mesh_extrapolation.py)
+BISECTIONS = 12
+FALSE_POSITIONS = 2
 
 
 def modelled_crossing(
@@ -83,12 +88,12 @@ def modelled_crossing(
     """The distance at which the exceedance curve of the MPM at one mesh, as its regression on the cheap route
     models it over every realization — the mean over all N of P(h > t | l) under h = a + b l + N(0, s(l)²), fitted
     on the pairs ``high_p``, ``low_p`` [..., n] with design ``weights`` (rgns.fidelity.multifidelity.
-    predicted_exceedance) — falls to each probability ``targets`` [P] → [..., P], by bisection within
-    ``bracket`` (its lower end where the curve starts at most P; inf where it is still above P at the upper
-    end). ``low_u``: the unpaired cheap values [..., M, 1], or binned [M, 1] with ``low_u_counts``. Without the
-    pairs' indicator correction the curve is smooth, so a difference of two meshes' crossings is free of the
-    1 / n jumps that made the step of a 1 % tail swing by metres; and it moves continuously with the fit: two
-    meshes whose runs differ by δ cross δ apart."""
+    predicted_exceedance) — falls to each probability ``targets`` [P] → [..., P], by BISECTIONS bisections and
+    FALSE_POSITIONS false-position steps within ``bracket`` (its lower end where the curve starts at most P; inf
+    where it is still above P at the upper end). ``low_u``: the unpaired cheap values [..., M, 1], or binned
+    [M, 1] with ``low_u_counts``. Without the pairs' indicator correction the curve is smooth, so a difference
+    of two meshes' crossings is free of the 1 / n jumps that made the step of a 1 % tail swing by metres; and it
+    moves continuously with the fit: two meshes whose runs differ by δ cross δ apart."""
     shape = (*high_p.shape[:-1], targets.size)
     rest = None if low_u is None else low_u[..., 0]
     counts = None if low_u_counts is None else low_u_counts[:, 0]
@@ -99,13 +104,28 @@ def modelled_crossing(
         return mean_predicted(g_pairs, high_p, low_p, rest, thresholds, weights, counts)
 
     lower, upper = np.full(shape, float(bracket[0])), np.full(shape, float(bracket[1]))
+    at_lower, at_upper = curve(lower) - targets, curve(upper) - targets  # the curve less P: > 0 below the fall
+    starts_low, never_falls = at_lower <= 0.0, at_upper > 0.0
     for _ in range(BISECTIONS):
         middle = 0.5 * (lower + upper)
-        above = curve(middle) > targets
-        lower, upper = np.where(above, middle, lower), np.where(above, upper, middle)
-    found = 0.5 * (lower + upper)
-    found = np.where(curve(np.full(shape, float(bracket[0]))) <= targets, bracket[0], found)
-    return np.where(curve(np.full(shape, float(bracket[1]))) > targets, np.inf, found)
+        at_middle = curve(middle) - targets
+        above = at_middle > 0.0
+        lower, at_lower = np.where(above, middle, lower), np.where(above, at_middle, at_lower)
+        upper, at_upper = np.where(above, upper, middle), np.where(above, at_upper, at_middle)
+
+    def interpolated() -> np.ndarray:
+        drop = at_lower - at_upper
+        share = np.divide(at_lower, drop, out=np.full_like(drop, 0.5), where=drop > 0.0)
+        return lower + np.clip(share, 0.0, 1.0) * (upper - lower)
+
+    for _ in range(FALSE_POSITIONS):
+        middle = interpolated()
+        at_middle = curve(middle) - targets
+        above = at_middle > 0.0
+        lower, at_lower = np.where(above, middle, lower), np.where(above, at_middle, at_lower)
+        upper, at_upper = np.where(above, upper, middle), np.where(above, at_upper, at_middle)
+    found = np.where(starts_low, bracket[0], interpolated())
+    return np.where(never_falls, np.inf, found)
 
 
 @dataclass
@@ -118,6 +138,62 @@ class DistanceIntervals:
     step: np.ndarray
     step_lower: np.ndarray
     step_upper: np.ndarray
+
+
+@dataclass
+class ModelResamples:
+    """Resamples of the pairs drawn from their regressions on the cheap route (:func:`model_resamples`): the
+    cheap values, the accurate and coarse values and the design weights [B, n]."""
+
+    cheap: np.ndarray
+    high: np.ndarray
+    coarse: np.ndarray
+    weights: np.ndarray
+
+
+def model_resamples(
+    high: np.ndarray,
+    coarse: np.ndarray,
+    cheap: np.ndarray,
+    weights: np.ndarray,
+    strata: np.ndarray | None,
+    resamples: int,
+    rng: np.random.Generator,
+) -> ModelResamples:
+    """Model-based resampling of the n pairs (Davison & Hinkley 1997, "Bootstrap methods and their application",
+    section 6.2.3): each resample draws the pairs' cheap values with replacement within their design stratum
+    (``strata``: a label per pair; None: one), and gives each an accurate and a coarse value from that mesh's
+    design-weighted regression line on the cheap route, fitted once, plus one pair's standardized residuals of
+    both meshes (drawn jointly, with the design weights as probabilities) at the spread the residual-spread
+    model puts at that cheap value (rgns.fidelity.multifidelity.spread_shape), scaled up for the fit's two
+    parameters by the design's effective count. A resample's pairs so reach a tail threshold that no pair of the
+    sample reached about as often as new pairs would under the fit; the pairs bootstrap never does, and its
+    intervals of the tail distances implied 1.3 to 1.7 times less spread than the estimates had
+    (benchmarks/results/interval_spread.md)."""
+    n = len(high)
+    w = weights / weights.sum()
+    effective = 1.0 / float((w * w).sum())
+    centred = cheap - w @ cheap
+    lines, standardized, shapes = [], [], []
+    for values in (high, coarse):
+        mean = w @ values
+        slope = float(w @ ((values - mean) * centred) / max(float(w @ centred**2), 1e-300))
+        residual = values - mean - slope * centred
+        shape = spread_shape(np.abs(residual), centred, w, centred)
+        lines.append((mean, slope))
+        standardized.append(residual / shape * np.sqrt(effective / max(effective - 2.0, 1.0)))
+        shapes.append(shape)
+    labels = np.zeros(n, dtype=int) if strata is None else np.asarray(strata[:n])
+    picks = np.empty((resamples, n), dtype=int)
+    for label in np.unique(labels):
+        members = np.flatnonzero(labels == label)
+        picks[:, members] = members[rng.integers(0, members.size, (resamples, members.size))]
+    donors = rng.choice(n, size=(resamples, n), p=w)
+    high_r, coarse_r = (
+        mean + slope * centred[picks] + shape[picks] * z[donors]
+        for (mean, slope), shape, z in zip(lines, shapes, standardized)
+    )
+    return ModelResamples(cheap[picks], high_r, coarse_r, weights[picks])
 
 
 def distance_intervals(
@@ -134,16 +210,25 @@ def distance_intervals(
 ) -> DistanceIntervals:
     """The converged distance exceeded with each probability P at each order [orders, P]: the corrected accurate
     curve's distance (as rgns.fidelity.outputs.correct finds it: regression control variate of ``high`` on the
-    cheap ``low``, rearranged, where it falls to P: rgns.hazard.exceedance.crossings) plus the Richardson step of the distances at
-    which the accurate and the coarse mesh's modelled curves fall to P (:func:`modelled_crossing`: each mesh's
-    regression on the cheap route over all N realizations). The corrected distance is design-unbiased; the step
-    is model-based, as Richardson's is, and borrows the N cheap runs' tail: the pairs' 1 − P quantiles it
-    replaces are, past the last pair's plotting position, the pairs' maximum (that step came out 0.43 m short at
-    P 0.01 in benchmarks/pair_coverage.py), and the pair-corrected curves' crossings jump by 1 / n in a 1 % tail
-    (a step of 0.42 m against 2.37 m for P 0.1 on the default run's pairs). One bootstrap resamples the pairs
-    (``high``, ``coarse`` and the first n of ``low``, together) and the unpaired cheap runs (held as they are,
-    binned, beyond RESAMPLED_UNPAIRED), within the design ``strata`` (a label per row of ``low``; None: one
-    stratum), refitting both regressions in every resample, at the expanded percentile level for n pairs."""
+    cheap ``low``, rearranged, where it falls to P: rgns.hazard.exceedance.crossings) plus the Richardson step of
+    the distances at which the accurate and the coarse mesh's modelled curves fall to P (:func:`modelled_crossing`:
+    each mesh's regression on the cheap route over all N realizations). The corrected distance is
+    design-unbiased; the step is model-based, as Richardson's is, and borrows the N cheap runs' tail: the pairs'
+    1 − P quantiles it replaces are, past the last pair's plotting position, the pairs' maximum (that step came
+    out 0.43 m short at P 0.01 in benchmarks/pair_coverage.py).
+
+    The interval is the union of two bootstraps' intervals, each at the expanded percentile level for n pairs:
+    the pairs bootstrap (the pairs — ``high``, ``coarse`` and the first n of ``low`` together — and the
+    unpaired cheap runs resampled within the design ``strata``: a label per row of ``low``, None one stratum;
+    both regressions refitted in every resample) and a basic interval from model-based resamples of the pairs
+    (:func:`model_resamples`: each resample is estimated as the sample is, and its deviation from what the fit
+    itself gives — the accurate mesh's modelled crossing plus the step — stands for the estimate's error). A
+    tail distance's estimate is pushed far out when a pair happens to pass P's threshold and not otherwise:
+    resampling the pairs cannot show that to a sample with no such pair (its intervals of the converged 10 %
+    and 1 % distances covered 85 and 83 % where the real pairs' relation bends and its spread grows), the
+    model-based resamples can but hold the fit's straight line (90 and 90 %); their union covered 93 and 93 %
+    (benchmarks/results/interval_spread.md, development seeds; pair_coverage.py's tables are the measurement).
+    The unpaired cheap runs are resampled up to RESAMPLED_UNPAIRED, beyond it held as they are, binned."""
     n, big_n = len(high), len(low)
     targets = np.asarray(probabilities, dtype=float)
     weights = design_weights(strata, n)
@@ -152,28 +237,56 @@ def distance_intervals(
     factor = ratio ** np.asarray(orders, dtype=float)[:, None] - 1.0  # [orders, 1]
     bracket = (float(d_m[0]), float(d_m[-1]))
 
-    def value(pick: np.ndarray, low_u: np.ndarray | None, counts: np.ndarray | None) -> np.ndarray:
-        cheap, w = low[pick], weights[pick]
-        ends = [modelled_crossing(fine[pick], cheap, low_u, targets, bracket, w, counts) for fine in (high, coarse)]
+    def value(
+        fine: np.ndarray,
+        partner: np.ndarray,
+        cheap: np.ndarray,
+        w: np.ndarray,
+        low_u: np.ndarray | None,
+        counts: np.ndarray | None,
+    ) -> np.ndarray:
+        """[..., 3, orders, P]: the estimate (corrected distance plus step), the step, and the fit's own distance
+        (the accurate mesh's modelled crossing plus the step)."""
+        ends = [modelled_crossing(mesh, cheap, low_u, targets, bracket, w, counts) for mesh in (fine, partner)]
         step = (ends[0] - ends[1])[..., None, :] / factor
-        curve = regression_point_estimate(
-            high[pick][..., None], cheap[..., None], low_u, d_m, weights=w, low_u_counts=counts
-        )
+        curve = regression_point_estimate(fine[..., None], cheap[..., None], low_u, d_m, weights=w, low_u_counts=counts)
         distance = crossings(rearranged(curve), d_m, targets)[..., None, :] + step  # [..., orders, P]
-        return np.stack([distance, step], axis=-3)  # [..., 2, orders, P]
+        return np.stack([distance, step, ends[0][..., None, :] + step], axis=-3)
 
-    def statistic(pick: np.ndarray, rest: np.ndarray | None) -> np.ndarray:
-        return value(pick, fixed_rest, fixed_counts) if rest is None else value(pick, low[rest][..., None], None)
+    rng = np.random.default_rng([seed, 1])  # the model-based resamples' own stream, apart from the pairs'
+    rest = low[n:, None] if big_n > n else None
+
+    def statistic(pick: np.ndarray, rest_pick: np.ndarray | None) -> np.ndarray:
+        low_u, counts = (fixed_rest, fixed_counts) if rest_pick is None else (low[rest_pick][..., None], None)
+        return value(high[pick], coarse[pick], low[pick], weights[pick], low_u, counts)[..., :2, :, :]
 
     with np.errstate(invalid="ignore"):  # inf − inf where neither curve falls to P: NaN, read as open
-        point = value(np.arange(n), low[n:, None] if big_n > n else None, None)
+        point = value(high, coarse, low[:n], weights, rest if resample_rest else fixed_rest, fixed_counts)
         evaluated = max(d_m.size, targets.size) * (big_n if resample_rest else n + BINS)  # the largest array
         batch = max(1, 2_000_000 // max(1, evaluated))
-        ends = stratified_bootstrap(statistic, n, big_n, confidence, RESAMPLES, seed, batch, strata, resample_rest)
-    lower, upper = (np.where(np.isfinite(end), end, np.nan) for end in ends)
-    point = np.where(np.isfinite(point), point, np.nan)
-    lower = np.where(np.isnan(lower), np.nan, np.fmin(lower, point))  # the interval holds the estimate
-    upper = np.where(np.isnan(upper), np.nan, np.fmax(upper, point))
+        paired = stratified_bootstrap(statistic, n, big_n, confidence, RESAMPLES, seed, batch, strata, resample_rest)
+        fitted = np.stack([point[2], point[1]])  # what the model-based resamples estimate: the fit's distance, step
+        drawn = model_resamples(high, coarse, low[:n], weights, strata, RESAMPLES, rng)
+        deviations = []
+        for start in range(0, RESAMPLES, batch):
+            part = slice(start, start + batch)
+            low_u = fixed_rest
+            if resample_rest and rest is not None:
+                low_u = rest[rng.integers(0, big_n - n, (len(drawn.cheap[part]), big_n - n))]
+            found = value(
+                drawn.high[part], drawn.coarse[part], drawn.cheap[part], drawn.weights[part], low_u, fixed_counts
+            )
+            deviations.append(found[:, :2] - fitted)  # the estimate's and the step's error where the fit is the law
+        errors = np.concatenate(deviations)  # [B, 2, orders, P]
+        level = expanded_level(confidence, n)
+        # the estimate's error exceeds the fit's at a share of resamples (NaN: a curve that never fell to P)
+        low_error, high_error = np.nanpercentile(errors, [50.0 * (1 - level), 50.0 * (1 + level)], axis=0)
+        open_ends = [np.where(np.isfinite(end), end, np.nan) for end in paired]  # NaN (open) stays open below
+        lower = np.minimum(open_ends[0], point[:2] - high_error)  # [2, orders, P]: the distance, the step
+        upper = np.maximum(open_ends[1], point[:2] - low_error)
+    lower, upper, point = (np.where(np.isfinite(a), a, np.nan) for a in (lower, upper, point))
+    lower = np.where(np.isnan(lower), np.nan, np.fmin(lower, point[:2]))  # the interval holds the estimate
+    upper = np.where(np.isnan(upper), np.nan, np.fmax(upper, point[:2]))
     return DistanceIntervals(lower[0], upper[0], point[1], lower[1], upper[1])
 
 
