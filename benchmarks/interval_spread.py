@@ -15,7 +15,9 @@ at the order's value (the converged distance and the step) and at order 60 (a st
 the accurate part alone, from the same resamples). Over the replicates, each part's standard deviation is set
 beside the spread its interval implies (mean half-width / z, z = 1.96): an interval that implies less spread
 than the estimate has cannot cover 95 %. Beside them, on the same replicates, the alternative
-:func:`residual_resampling` (model-based resampling of the pairs). ``--passes`` splits the recorded P 0.01
+:func:`residual_resampling` (model-based resampling of the pairs), and the union of the two converged intervals,
+which distance_intervals reports since f015f0c (the rows recorded before it hold its pairs bootstrap alone as
+the joint one; rerun now, that column is the union). ``--passes`` splits the recorded P 0.01
 estimates by how many of their pairs passed the population's answer. Seeds 777-799 are development seeds: they
 chose nothing and nothing was chosen on them but where to look next; coverage is pair_coverage.py's, on its own
 seeds.
@@ -50,27 +52,23 @@ def replicate(population: dict, settings: dict, cost: dict, seed: int, number: i
     """One replicate's parts and intervals (lists over PROBABILITIES)."""
     rng = np.random.default_rng([seed, number, 0])
     low, high, coarse, plan = pc.tables(population, settings, rng)
-    pc.fast_normal(True)
-    try:
-        curve = pc.runout_correction(low, high, settings, cost, number, plan)["exceedance"]["runout_m"]
-        fine, partner, cheap = me.nested_levels(low, high, coarse)
-        strata = row_strata(plan, cheap["index"].tolist(), len(fine))
-        levels = [t["runout_m"].to_numpy(float) for t in (fine, partner, cheap)]
-        d_m = np.asarray(curve["d_m"])
-        ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
-        order = float(settings["mesh_order"]["runout_m"][1])
-        joint = me.distance_intervals(
-            *levels,
-            d_m,
-            list(PROBABILITIES),
-            ratio,
-            np.array([order, ACCURATE_ONLY]),
-            settings["confidence"],
-            number,
-            strata,
-        )
-    finally:
-        pc.fast_normal(False)
+    curve = pc.runout_correction(low, high, settings, cost, number, plan)["exceedance"]["runout_m"]
+    fine, partner, cheap = me.nested_levels(low, high, coarse)
+    strata = row_strata(plan, cheap["index"].tolist(), len(fine))
+    levels = [t["runout_m"].to_numpy(float) for t in (fine, partner, cheap)]
+    d_m = np.asarray(curve["d_m"])
+    ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
+    order = float(settings["mesh_order"]["runout_m"][1])
+    joint = me.distance_intervals(
+        *levels,
+        d_m,
+        list(PROBABILITIES),
+        ratio,
+        np.array([order, ACCURATE_ONLY]),
+        settings["confidence"],
+        number,
+        strata,
+    )
     accurate = [curve["distances"][str(p)]["corrected"] for p in PROBABILITIES]
     deviations = residual_resampling(*levels, d_m, ratio, order, settings["confidence"], number, strata)[
         "deviation_quantiles"
@@ -195,6 +193,20 @@ def implied(intervals: list[list[float]]) -> float:
     return float(np.nanmean(widths) / Z)
 
 
+def union(rows: list[dict], j: int, answer: float) -> dict[str, float]:
+    """The spread the union of the two converged intervals (the pairs bootstrap's, recorded as the joint one,
+    and the model-based one) implies at PROBABILITIES[j], and its coverage of ``answer``: what
+    rgns.fidelity.mesh_extrapolation.distance_intervals reports since f015f0c."""
+    ends = [
+        [
+            min(r["converged_interval"][j][0], r["residual_resampling"]["converged"][j][0]),
+            max(r["converged_interval"][j][1], r["residual_resampling"]["converged"][j][1]),
+        ]
+        for r in rows
+    ]
+    return {"implies": implied(ends), "coverage": float(np.mean([lo <= answer <= hi for lo, hi in ends]))}
+
+
 def summary(rows: list[dict], truth: dict) -> dict[str, Any]:
     """Per P: each part's sd over the replicates and the spread its intervals imply, biases, the parts'
     correlation, and the converged interval's coverage of the chain's target."""
@@ -237,6 +249,7 @@ def summary(rows: list[dict], truth: dict) -> dict[str, Any]:
             }
             if all(r.get("residual_resampling") for r in rows)
             else None,
+            "union": union(rows, j, known["converged"]) if all(r.get("residual_resampling") for r in rows) else None,
             "coverage": float(np.mean(covered)),
             "coverage_se": float(np.sqrt(0.95 * 0.05 / len(rows))),
         }
@@ -281,17 +294,20 @@ def write_report(result: dict) -> None:
         if all(alternative.values()):
             lines += [
                 "Model-based resampling (`residual_resampling`, the alternative) on the same replicates: the spread "
-                "its basic intervals imply, and their coverage.",
+                "its basic intervals imply, and their coverage; last, the union of its converged interval and the "
+                "pairs bootstrap's (what `distance_intervals` reports since f015f0c).",
                 "",
-                "| P | accurate part: implies / coverage | mesh step: implies / coverage | converged: implies / coverage |",
-                "|---|---|---|---|",
+                "| P | accurate part: implies / coverage | mesh step: implies / coverage | converged: implies / coverage "
+                "| union, converged: implies / coverage |",
+                "|---|---|---|---|---|",
             ]
+            unions = {p: s["union"] for p, s in summary(rows, result["truth"][design["population"]]).items()}
             for p, parts in alternative.items():
                 cells = " | ".join(
                     f"{parts[name]['implies']:.3f} / {parts[name]['coverage']:.2f}"
                     for name in ("accurate", "step", "converged")
                 )
-                lines.append(f"| {p} | {cells} |")
+                lines.append(f"| {p} | {cells} | {unions[p]['implies']:.3f} / {unions[p]['coverage']:.2f} |")
             lines.append("")
     for kind, designs in result.get("passes", {}).items():
         lines += [

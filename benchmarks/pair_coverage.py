@@ -76,10 +76,8 @@ import mesh_levels as ml  # noqa: E402
 import numpy as np
 import pandas as pd
 import torch
-from scipy import special, stats
 
 from rgns.config import load_config
-from rgns.fidelity import multifidelity
 from rgns.fidelity.multifidelity import control_variate, rearranged, regression_control_variate, route
 from rgns.fidelity.multilevel import richardson_step
 from rgns.fidelity.outputs import best_estimate, correct, paired_rows
@@ -324,32 +322,6 @@ def tables(
     return low, fresh("0.5"), fresh("1"), plan
 
 
-class _Normal:
-    """scipy.stats.norm with ``cdf`` as the special function it evaluates (scipy's ``_norm_cdf`` is
-    ``special.ndtr``; for loc 0 and scale 1 the generic wrapper returns the same numbers, NaN and ±inf included)
-    without the wrapper's masking, which took half of a replicate's time."""
-
-    def cdf(self, x: Any) -> Any:
-        return special.ndtr(np.asarray(x, dtype=float))
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(stats.norm, name)
-
-
-class _Stats:
-    """scipy.stats as rgns.fidelity.multifidelity sees it, with :class:`_Normal` as ``norm``."""
-
-    norm = _Normal()
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(stats, name)
-
-
-def fast_normal(on: bool) -> None:
-    """Swap rgns.fidelity.multifidelity's scipy.stats for :class:`_Stats` (in this process only) or back."""
-    multifidelity.stats = _Stats() if on else stats  # type: ignore[assignment]
-
-
 def runout_correction(
     low: pd.DataFrame,
     high: pd.DataFrame,
@@ -396,15 +368,11 @@ def run_replicate(
 ) -> dict:
     """One replicate through rule multifidelity's estimators: per quantity the estimate, the interval at the
     order's value and the report's, the accurate-mesh estimate and its interval; the allocation. ``full``: the
-    whole ``correct`` with scipy's own normal; else :func:`runout_correction` with :func:`fast_normal`."""
+    whole ``correct``; else :func:`runout_correction`."""
     low, high, coarse, plan = tables(population, settings, rng)
-    fast_normal(not full)
-    try:
-        record = best_estimate(low, high, coarse, settings, cost, plan, seed, correct if full else runout_correction)
-        chain = record["converged"]
-        plain = record.get("route_applied") == "plain MPM"
-    finally:
-        fast_normal(False)
+    record = best_estimate(low, high, coarse, settings, cost, plan, seed, correct if full else runout_correction)
+    chain = record["converged"]
+    plain = record.get("route_applied") == "plain MPM"
     mean = chain["means"]["runout_m"]
     found: dict[str, Any] = {
         "mean": {
@@ -431,7 +399,7 @@ def run_replicate(
 
 
 def check(population: dict, settings: dict, cost: dict[str, float], rng_seed: list[int], seed: int) -> dict:
-    """One replicate by the fast path and by the full one (``correct`` whole, scipy's own normal): the fast
+    """One replicate by the fast path and by the full one (``correct`` whole): the fast
     one's record, after asserting that both give the same numbers."""
     fast = run_replicate(population, settings, cost, np.random.default_rng(rng_seed), seed)
     full = run_replicate(population, settings, cost, np.random.default_rng(rng_seed), seed, full=True)
@@ -858,9 +826,7 @@ def main() -> None:
         rng_seed = [args.seed, number, int(args.sabotage)]
         if number == 0:  # the fast path against rule multifidelity's own, once per run
             mode["replicates"].append(check(population, settings, meta["cost"], rng_seed, number))
-            mode["checked"] = (
-                "replicate 0: the fast path's numbers equal those of the full correct() with scipy's normal"
-            )
+            mode["checked"] = "replicate 0: the fast path's numbers equal those of the full correct()"
             print(f"{name}: {mode['checked']} ({time.perf_counter() - tick:.0f} s for both)", flush=True)
             tick = time.perf_counter()
             run_replicate(population, settings, meta["cost"], np.random.default_rng(rng_seed), number)

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import stats
+from scipy import special, stats
 
 RESAMPLES = 2000
 
@@ -269,7 +269,7 @@ def predicted_exceedance(
     scale = np.maximum(scale, 1e-9 * (1.0 + np.sqrt(var / np.maximum(count, 1) * count)))
     predicted = mean_h + slope * (low - mean_l)  # [..., M]
     spread = scale * spread_shape(np.abs(residual), dl, w, low - mean_l)  # [..., M]
-    smooth = stats.norm.cdf((predicted[..., None] - thresholds) / spread[..., None])
+    smooth = special.ndtr((predicted[..., None] - thresholds) / spread[..., None])  # norm.cdf less its wrapper
     step = low[..., None] > thresholds
     return np.where(np.isfinite(low)[..., None], smooth, step)
 
