@@ -12,9 +12,9 @@ benchmarks/mesh_levels.py; null where no asymptotic range was measured), Richard
 * the runout and influence exceeded with probability P: the corrected distance plus the Richardson step
   of the distances at which the accurate and the coarse mesh's curves, as each mesh's regression on the
   cheap route models them over all N realizations, fall to P (so the step of a 1 % tail rests on the N
-  cheap runs, not on the pairs' maximum); the interval is one joint bootstrap of both
-  (:func:`distance_intervals`: the pairs and the cheap runs resampled once, the distance and the step
-  taken from the same resample), at each order of the order's interval, enveloped;
+  cheap runs, not on the pairs' maximum); the interval is the union of two bootstraps of both together
+  (:func:`distance_intervals`: the pairs resampled, and the pairs redrawn from each mesh's fit, the distance
+  and the step taken from the same resample), at each order of the order's interval, enveloped;
 * the zoning: the profile recomputed with the fronts and back scarps moved by their mean steps, at the
   order's value and at its interval's ends.
 """
