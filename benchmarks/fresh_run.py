@@ -112,6 +112,7 @@ def headline(report: Path, mc: Path) -> dict[str, Any]:
         "cheap_validation": record["pair_validation"],
         "simulator_validation": record.get("simulator_validation"),
         "allocation": record["allocation"],
+        "cost_s": record["cost"],  # seconds per realization measured in this run: the machine's pace
         "converged_at": {name: entry["converged_at"] for name, entry in convergence["metrics"].items()},
         "pairs": pair_positions(record, mc),
     }

@@ -96,7 +96,13 @@ def run_lines(record: dict[str, Any], case: str) -> list[str]:
         f"Measured by `{record['command']}` at {record['commit']} ({record['date']}): a fresh clone, "
         f"`{record['run']}` after the README's install ({record['install_s']:.0f} s, excluded), "
         f"{record['machine']}, load average {load:.2f} before it: **{minutes(record['seconds'])}**, peak memory "
-        f"{record['peak_memory_gb']:.2f} GB (the largest process).",
+        f"{record['peak_memory_gb']:.2f} GB (the largest process)"
+        + (
+            f"; in this run the accurate MPM took {head['cost_s']['high_s']:.1f} s and the learned simulator "
+            f"{1000 * head['cost_s']['low_s']:.1f} ms per realization (the machine's pace)."
+            if "cost_s" in head
+            else "."
+        ),
         f"`{case}`: {head['n_realizations']:,} realizations by the learned simulator, {head['n_pairs']} MPM pairs; "
         f"the best estimate carried to the converged mesh (95 % intervals): mean runout "
         f"{ends(head['means']['runout_m'])}; R exceeded with P {' / '.join(probabilities)}: "
@@ -190,13 +196,16 @@ def pair_coverage() -> str:
     }
     records = {label: result(name) for label, name in populations.items()}
     commits = sorted({commit for record in records.values() for commit in record["normal"].get("commits", [])})
+    counts = sorted({len(record["normal"]["replicates"]) for record in records.values()}, reverse=True)
     lines = [
         "| population (replicates, seed) | mean runout | R at P 0.5 | R at P 0.1 | R at P 0.01 |",
         "|---|---|---|---|---|",
         *(coverage_row(label, record) for label, record in records.items()),
         "",
         "Each cell: the sampling interval's coverage of the converged answer (misses below / above), then the "
-        "report's interval's; 3 SE of 95 % is ±4.6 points on 200 replicates. The converged answer of a distance is "
+        "report's interval's; 3 SE of 95 % is "
+        + ", ".join(f"±{300 * (0.95 * 0.05 / n) ** 0.5:.1f} points on {n} replicates" for n in counts)
+        + ". The converged answer of a distance is "
         "read from the law as the pipeline reads its own curves (rgns.hazard.exceedance: where the curve falls to "
         "P, linear between the distances it is known at), plus the Richardson step of the same reading at 0.5 "
         "and 1 m. "
