@@ -29,6 +29,7 @@ import torch
 from suite import case_inputs
 
 from rgns.config import load_config
+from rgns.provenance import commit
 from rgns.surrogates.endstate.data import read_end_states, write_end_states
 from rgns.surrogates.endstate.model import load_model
 from rgns.surrogates.endstate.train import examples, held_out_loss
@@ -96,6 +97,9 @@ def main() -> None:
     mf.add_endstate_route(routes, record["n"], shipped, "end-state surrogate, shipped (1 m)")
     mf.add_endstate_route(routes, record["n"], tuned, "end-state surrogate, tuned on 0.5 m")
     result = {
+        "command": "python benchmarks/hifi_surrogate.py "
+        + " ".join(f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items() if k != "data"),
+        "commit": commit(),
         "args": {k: str(v) for k, v in vars(args).items()},
         "train": len(train),
         "held_out": len(held),
