@@ -106,22 +106,16 @@ def modelled_crossing(
     lower, upper = np.full(shape, float(bracket[0])), np.full(shape, float(bracket[1]))
     at_lower, at_upper = curve(lower) - targets, curve(upper) - targets  # the curve less P: > 0 below the fall
     starts_low, never_falls = at_lower <= 0.0, at_upper > 0.0
-    for _ in range(BISECTIONS):
-        middle = 0.5 * (lower + upper)
-        at_middle = curve(middle) - targets
-        above = at_middle > 0.0
-        lower, at_lower = np.where(above, middle, lower), np.where(above, at_middle, at_lower)
-        upper, at_upper = np.where(above, upper, middle), np.where(above, at_upper, at_middle)
 
     def interpolated() -> np.ndarray:
         drop = at_lower - at_upper
         share = np.divide(at_lower, drop, out=np.full_like(drop, 0.5), where=drop > 0.0)
         return lower + np.clip(share, 0.0, 1.0) * (upper - lower)
 
-    for _ in range(FALSE_POSITIONS):
-        middle = interpolated()
+    for step in range(BISECTIONS + FALSE_POSITIONS):
+        middle = 0.5 * (lower + upper) if step < BISECTIONS else interpolated()
         at_middle = curve(middle) - targets
-        above = at_middle > 0.0
+        above = at_middle > 0.0  # the fall lies above middle: it becomes the bracket's lower end
         lower, at_lower = np.where(above, middle, lower), np.where(above, at_middle, at_lower)
         upper, at_upper = np.where(above, upper, middle), np.where(above, at_upper, at_middle)
     found = np.where(starts_low, bracket[0], interpolated())
@@ -226,8 +220,10 @@ def distance_intervals(
     tail distance's estimate is pushed far out when a pair happens to pass P's threshold and not otherwise:
     resampling the pairs cannot show that to a sample with no such pair (its intervals of the converged 10 %
     and 1 % distances covered 85 and 83 % where the real pairs' relation bends and its spread grows), the
-    model-based resamples can but hold the fit's straight line (90 and 90 %); their union covered 93 and 93 %
-    (benchmarks/results/interval_spread.md, development seeds; pair_coverage.py's tables are the measurement).
+    model-based resamples can but hold the fit's straight line (90 and 90 %); their union covered 93 and 93 % on
+    development seeds (benchmarks/results/interval_spread.md), but 85 and 85 % on the first 46 fresh replicates of
+    that population (benchmarks/results/pair_coverage_local.md): wider than the pairs bootstrap alone and, there,
+    still short.
     The unpaired cheap runs are resampled up to RESAMPLED_UNPAIRED, beyond it held as they are, binned."""
     n, big_n = len(high), len(low)
     targets = np.asarray(probabilities, dtype=float)
