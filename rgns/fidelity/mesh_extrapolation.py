@@ -155,39 +155,38 @@ def model_resamples(
     rng: np.random.Generator,
 ) -> ModelResamples:
     """Model-based resampling of the n pairs (Davison & Hinkley 1997, "Bootstrap methods and their application",
-    section 6.2.3): each resample draws the pairs' cheap values with replacement within their design stratum
-    (``strata``: a label per pair; None: one), and gives each an accurate and a coarse value from that mesh's
-    design-weighted regression line on the cheap route, fitted once, plus one pair's standardized residuals of
-    both meshes (drawn jointly, with the design weights as probabilities) at the spread the residual-spread
-    model puts at that cheap value (rgns.fidelity.multifidelity.spread_shape), scaled up for the fit's two
-    parameters by the design's effective count. A resample's pairs so reach a tail threshold that no pair of the
-    sample reached about as often as new pairs would under the fit; the pairs bootstrap never does, and its
-    intervals of the tail distances implied 1.3 to 1.7 times less spread than the estimates had
-    (benchmarks/results/interval_spread.md)."""
+    section 6.2.3), as the design would draw new pairs: each resample draws its n cheap values anew from all N
+    cheap runs (``cheap`` [N], the pairs first), each within its pair's design stratum (``strata``: a label per
+    row; None: one), and gives each an accurate and a coarse value from that mesh's design-weighted regression
+    line on the cheap route, fitted once on the pairs, plus one pair's standardized residuals of both meshes
+    (drawn jointly, with the design weights as probabilities) at the spread the residual-spread model puts at
+    that cheap value (rgns.fidelity.multifidelity.spread_shape), scaled up for the fit's two parameters by the
+    design's effective count. A resample's pairs so fall in the cheap route's tail, and pass a tail threshold
+    that no pair of the sample reached, as often as new pairs would under the fit. Drawing the cheap values from
+    the pairs' own instead (as first written) left a sample with no pair in the tail without one in any
+    resample: its intervals of the converged 10 % and 1 % distances covered 85 and 85 % on fresh seeds
+    (benchmarks/results/pair_coverage_local.md)."""
     n = len(high)
     w = weights / weights.sum()
     effective = 1.0 / float((w * w).sum())
-    centred = cheap - w @ cheap
-    lines, standardized, shapes = [], [], []
-    for values in (high, coarse):
-        mean = w @ values
-        slope = float(w @ ((values - mean) * centred) / max(float(w @ centred**2), 1e-300))
-        residual = values - mean - slope * centred
-        shape = spread_shape(np.abs(residual), centred, w, centred)
-        lines.append((mean, slope))
-        standardized.append(residual / shape * np.sqrt(effective / max(effective - 2.0, 1.0)))
-        shapes.append(shape)
-    labels = np.zeros(n, dtype=int) if strata is None else np.asarray(strata[:n])
+    centre = float(w @ cheap[:n])
+    centred = cheap[:n] - centre
+    labels = np.zeros(len(cheap), dtype=int) if strata is None else np.asarray(strata)
     picks = np.empty((resamples, n), dtype=int)
-    for label in np.unique(labels):
-        members = np.flatnonzero(labels == label)
-        picks[:, members] = members[rng.integers(0, members.size, (resamples, members.size))]
+    for label in np.unique(labels[:n]):
+        slots, pool = np.flatnonzero(labels[:n] == label), np.flatnonzero(labels == label)
+        picks[:, slots] = pool[rng.integers(0, pool.size, (resamples, slots.size))]
+    drawn = cheap[picks] - centre  # [B, n]
     donors = rng.choice(n, size=(resamples, n), p=w)
-    high_r, coarse_r = (
-        mean + slope * centred[picks] + shape[picks] * z[donors]
-        for (mean, slope), shape, z in zip(lines, shapes, standardized)
-    )
-    return ModelResamples(cheap[picks], high_r, coarse_r, weights[picks])
+    values = []
+    for mesh in (high, coarse):
+        mean = w @ mesh
+        slope = float(w @ ((mesh - mean) * centred) / max(float(w @ centred**2), 1e-300))
+        residual = mesh - mean - slope * centred
+        standardized = residual / spread_shape(np.abs(residual), centred, w, centred)
+        standardized *= np.sqrt(effective / max(effective - 2.0, 1.0))
+        values.append(mean + slope * drawn + spread_shape(np.abs(residual), centred, w, drawn) * standardized[donors])
+    return ModelResamples(cheap[picks], values[0], values[1], np.broadcast_to(weights, (resamples, n)).copy())
 
 
 def distance_intervals(
@@ -215,15 +214,16 @@ def distance_intervals(
     the pairs bootstrap (the pairs — ``high``, ``coarse`` and the first n of ``low`` together — and the
     unpaired cheap runs resampled within the design ``strata``: a label per row of ``low``, None one stratum;
     both regressions refitted in every resample) and a basic interval from model-based resamples of the pairs
-    (:func:`model_resamples`: each resample is estimated as the sample is, and its deviation from what the fit
-    itself gives — the accurate mesh's modelled crossing plus the step — stands for the estimate's error). A
-    tail distance's estimate is pushed far out when a pair happens to pass P's threshold and not otherwise:
-    resampling the pairs cannot show that to a sample with no such pair (its intervals of the converged 10 %
-    and 1 % distances covered 85 and 83 % where the real pairs' relation bends and its spread grows), the
-    model-based resamples can but hold the fit's straight line (90 and 90 %); their union covered 93 and 93 % on
-    development seeds (benchmarks/results/interval_spread.md), but 85 and 85 % on the first 46 fresh replicates of
-    that population (benchmarks/results/pair_coverage_local.md): wider than the pairs bootstrap alone and, there,
-    still short.
+    (:func:`model_resamples`: new pairs drawn by the design from the N cheap runs, their values at both meshes
+    from each mesh's fit; each resample is estimated as the sample is, and its deviation from what the fit itself
+    gives — the accurate mesh's modelled crossing plus the step — stands for the estimate's error). A tail
+    distance's estimate is pushed far out when a pair happens to pass P's threshold and not otherwise:
+    resampling the pairs cannot show that to a sample with no such pair (its intervals of the converged 10 % and
+    1 % distances covered 85 and 83 % where the real pairs' relation bends and its spread grows), and nor could
+    model-based resamples that redrew the pairs' own cheap values (with them the union covered 85 and 85 % on
+    46 fresh replicates, in pair_coverage_local.md's history); drawn from all N cheap runs, the union's intervals
+    implied 0.50 and 0.87 m of spread where the estimates had 0.51 and 0.93 m (24 development replicates of that
+    population, simple random pairs; measured on fresh seeds: benchmarks/results/pair_coverage_local.md).
     The unpaired cheap runs are resampled up to RESAMPLED_UNPAIRED, beyond it held as they are, binned."""
     n, big_n = len(high), len(low)
     targets = np.asarray(probabilities, dtype=float)
@@ -262,7 +262,7 @@ def distance_intervals(
         batch = max(1, 2_000_000 // max(1, evaluated))
         paired = stratified_bootstrap(statistic, n, big_n, confidence, RESAMPLES, seed, batch, strata, resample_rest)
         fitted = np.stack([point[2], point[1]])  # what the model-based resamples estimate: the fit's distance, step
-        drawn = model_resamples(high, coarse, low[:n], weights, strata, RESAMPLES, rng)
+        drawn = model_resamples(high, coarse, low, weights, strata, RESAMPLES, rng)
         deviations = []
         for start in range(0, RESAMPLES, batch):
             part = slice(start, start + batch)

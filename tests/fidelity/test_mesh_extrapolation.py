@@ -122,17 +122,18 @@ def test_the_converged_distance_intervals_cover_the_truth_within_3_se_of_95_perc
 
 
 def test_model_resamples_reach_the_tail_as_often_as_new_pairs_would():
-    """40 samples of 32 pairs, h = 1 + l + N(0, 0.5²): the model-based resamples' pairs pass the law's 1 %
-    quantile t at the law's own rate over the samples' cheap values (means within 3 SE), those of a sample that
-    no pair passed included, where resampling the pairs themselves never passes it (the tail distances'
-    intervals then implied 1.3-1.7x less spread than the estimates had: benchmarks/results/interval_spread.md).
-    The resamples keep the fit's line, both meshes' residuals drawn jointly, and each stratum's cheap values."""
+    """40 samples of 32 pairs among 2,000 cheap runs, h = 1 + l + N(0, 0.5²): the model-based resamples' pairs
+    pass the law's 1 % quantile t at the population's rate (means within 3 SE), in the samples that no pair
+    passed too (measured: 0.99 % against 0.94 % in the 31 such samples), where resampling the pairs themselves
+    never passes it, and drawing the pairs' own cheap values (as first written) passed it at 0.47 %: the tail
+    the sample lacked stayed missing, and the tail distances' intervals covered 85 % on fresh seeds. The
+    resamples keep the fit's line, both meshes' residuals drawn jointly, and each stratum's cheap values."""
     threshold = 11.0 + stats.norm.ppf(0.99) * np.hypot(2.0, 0.5)
     law, resampled, unreached = [], [], []
     for seed in range(40):
         rng = np.random.default_rng(seed)
-        cheap = rng.normal(10.0, 2.0, 32)
-        high = 1.0 + cheap + rng.normal(0.0, 0.5, 32)
+        cheap = rng.normal(10.0, 2.0, 2000)
+        high = 1.0 + cheap[:32] + rng.normal(0.0, 0.5, 32)
         strata = (cheap > np.median(cheap)).astype(int)
         drawn = model_resamples(high, high - 1.0, cheap, np.full(32, 1 / 32), strata, 2000, rng)
         law.append(stats.norm.sf(threshold, 1.0 + cheap, 0.5).mean())
@@ -140,17 +141,17 @@ def test_model_resamples_reach_the_tail_as_often_as_new_pairs_would():
         if (high <= threshold).all():
             unreached.append((resampled[-1], law[-1]))
         np.testing.assert_allclose(drawn.coarse, drawn.high - 1.0, atol=1e-9)
-        assert (np.isin(drawn.cheap, cheap[strata == 1]) == (strata[None, :] == 1)).all()
+        assert (np.isin(drawn.cheap, cheap[strata == 1]) == (strata[None, :32] == 1)).all()
         assert np.polyfit(drawn.cheap.ravel(), drawn.high.ravel(), 1) == pytest.approx(
-            np.polyfit(cheap, high, 1), abs=0.05
+            np.polyfit(cheap[:32], high, 1), abs=0.05
         )
     difference = np.array(resampled) - np.array(law)
     assert abs(difference.mean()) < 3 * difference.std(ddof=1) / np.sqrt(difference.size), (
         np.mean(resampled),
         np.mean(law),
     )
-    rate, expected = np.mean(unreached, axis=0)  # measured: 0.0029 against 0.0027 over 29 such samples
-    assert len(unreached) >= 10 and 0.5 < rate / expected < 2.0, (len(unreached), rate, expected)
+    rate, expected = np.mean(unreached, axis=0)
+    assert len(unreached) >= 10 and 0.7 < rate / expected < 1.4, (len(unreached), rate, expected)
 
 
 def test_a_modelled_tail_follows_a_residual_spread_that_grows_with_the_cheap_value():
