@@ -182,8 +182,9 @@ def coverage_row(label: str, record: dict[str, Any]) -> str:
             + ("" if sampling["within_3se"] else " **outside 3 SE**")
             + f"; {100 * report['coverage']:.1f} %"
         )
-    normal = record["normal"]
-    return f"| {label} ({len(normal['replicates'])}, seed {normal['seed']}) | " + " | ".join(cells) + " |"
+    normal, strata = record["normal"], record["meta"]["design"]["strata"]
+    design = f"pairs in strata at {' / '.join(f'{q:g}' for q in strata)}" if strata else "simple random pairs"
+    return f"| {label} ({len(normal['replicates'])}, seed {normal['seed']}, {design}) | " + " | ".join(cells) + " |"
 
 
 def pair_coverage() -> str:
@@ -198,7 +199,7 @@ def pair_coverage() -> str:
     commits = sorted({commit for record in records.values() for commit in record["normal"].get("commits", [])})
     counts = sorted({len(record["normal"]["replicates"]) for record in records.values()}, reverse=True)
     lines = [
-        "| population (replicates, seed) | mean runout | R at P 0.5 | R at P 0.1 | R at P 0.01 |",
+        "| population (replicates, seed, design) | mean runout | R at P 0.5 | R at P 0.1 | R at P 0.01 |",
         "|---|---|---|---|---|",
         *(coverage_row(label, record) for label, record in records.items()),
         "",
