@@ -38,7 +38,7 @@ from scipy import stats
 from rgns.fidelity import mesh_extrapolation as me
 from rgns.fidelity import multifidelity
 from rgns.fidelity.pair_design import row_strata
-from rgns.hazard.exceedance import crossings, distance_at
+from rgns.hazard.exceedance import distance_at
 from rgns.provenance import commit
 
 OUT = pc.OUT / "interval_spread.json"
@@ -101,65 +101,53 @@ def residual_resampling(
     strata: np.ndarray | None = None,
     resamples: int = 1000,
 ) -> dict[str, list[list[float]]]:
-    """The alternative measured beside the pipeline's pairs bootstrap: model-based resampling (Davison & Hinkley
-    1997, section 6.2.3). Each resample draws the pairs' cheap values with replacement (within their design
-    stratum: ``strata``, a label per row, pairs first; None: one) and gives each an accurate value at both meshes
-    from its (design-weighted) regression line, fitted once, plus one pair's standardized residuals, drawn with
-    replacement (with the design weights as probabilities) and jointly for the two meshes, at the spread the
-    residual-spread model puts at that cheap value (rgns.fidelity.multifidelity.spread_shape), scaled by
-    sqrt(n / (n - 2)) for the fit's two parameters (n the design's effective count). A resample's pairs can then exceed a tail threshold that
-    no pair of the sample reached, about as often as new pairs would under the fitted model; the pairs
-    bootstrap cannot. Every resample is estimated as the pipeline estimates (corrected curve's crossing,
-    modelled crossings' step, the unpaired runs binned) → per part (accurate, step, converged) the quantiles
-    [lower [P], upper [P]], at the expanded level for n pairs, of the resamples' deviation from what the fit
-    itself gives (the modelled crossing, its step): the basic bootstrap interval of an estimate e is then
-    [e − upper, e − lower], which holds an estimate pushed out by a pair in the tail as well as one that no
-    pair reached."""
+    """The alternative measured beside the pipeline's pairs bootstrap, as first written: model-based resampling
+    (rgns.fidelity.mesh_extrapolation.model_resamples) whose resamples redraw the pairs' own cheap values (within
+    their design stratum: ``strata``, a label per row, pairs first; None: one), each estimated as the pipeline
+    estimates (mesh_extrapolation.converged_distances: the corrected curve's crossing, the modelled crossings'
+    step, the unpaired runs binned) → per part (accurate, step, converged) the quantiles [lower [P], upper [P]],
+    at the expanded level for n pairs, of the resamples' deviation from what the fit itself gives (the modelled
+    crossing, its step): the basic bootstrap interval of an estimate e is then [e − upper, e − lower]. The
+    pipeline's own model-based half draws the cheap values from all N (since 6d65e29); this keeps the variant
+    the recorded columns measured."""
     n = len(fine)
     if strata is not None and np.unique(strata[:n]).size == 1:
         strata = None  # a simple random design's labels (rule paired_plan gives one stratum): drawn as one
     cheap_p = cheap[:n]
     rest, counts = multifidelity.binned(cheap[n:, None], multifidelity.BINS)
     design = multifidelity.design_weights(strata, n)
-    effective = 1.0 / float((design * design).sum())
-    # one stratum: the plain mean and unweighted fit, as the simple random runs in the json were drawn
-    centred = cheap_p - (cheap_p.mean() if strata is None else design @ cheap_p)
-    fitted, standardized, shapes = [], [], []
-    for values in (fine, partner):
-        slope, intercept = np.polyfit(cheap_p, values, 1, w=None if strata is None else np.sqrt(design))
-        residual = values - (intercept + slope * cheap_p)
-        shape = multifidelity.spread_shape(np.abs(residual), centred, design, centred)
-        fitted.append((intercept, slope))
-        standardized.append(residual / shape * np.sqrt(effective / (effective - 2.0)))
-        shapes.append(shape)
     rng = np.random.default_rng(seed)
-    if strata is None:
-        picks, draws = rng.integers(0, n, (resamples, n)), rng.integers(0, n, (resamples, n))
-    else:
-        picks = np.empty((resamples, n), dtype=int)
-        for label in np.unique(strata[:n]):
-            members = np.flatnonzero(strata[:n] == label)
-            picks[:, members] = members[rng.integers(0, members.size, (resamples, members.size))]
-        draws = rng.choice(n, size=(resamples, n), p=design)
-    targets = np.asarray(PROBABILITIES)
-    bracket = (float(d_m[0]), float(d_m[-1]))
-    parts: list[np.ndarray] = []
-    for start in range(0, resamples, 16):
-        pick, draw = picks[start : start + 16], draws[start : start + 16]
-        low_p = cheap_p[pick]
-        meshes = [a + b * low_p + shape[pick] * z[draw] for (a, b), shape, z in zip(fitted, shapes, standardized)]
-        w = design[pick]
-        curve = multifidelity.regression_point_estimate(
-            meshes[0][..., None], low_p[..., None], rest, d_m, weights=w, low_u_counts=counts
-        )
-        accurate = crossings(multifidelity.rearranged(curve), d_m, targets)
-        ends = [me.modelled_crossing(mesh, low_p, rest, targets, bracket, w, counts) for mesh in meshes]
-        step = (ends[0] - ends[1]) / (ratio**order - 1.0)
-        parts.append(np.stack([accurate, step, accurate + step]))
-    values = np.concatenate(parts, axis=1)  # [3, resamples, P]
-    model = [me.modelled_crossing(mesh, cheap_p, rest, targets, bracket, design, counts) for mesh in (fine, partner)]
-    step = (model[0] - model[1]) / (ratio**order - 1.0)
-    centre = np.stack([model[0], step, model[0] + step])[:, None, :]  # what the resamples estimate, under the fit
+    drawn = me.model_resamples(fine, partner, cheap_p, design, None if strata is None else strata[:n], resamples, rng)
+    targets, factor = np.asarray(PROBABILITIES), np.array([[ratio**order - 1.0]])
+
+    def parts(found: np.ndarray) -> np.ndarray:
+        """[..., 3, 1, P] of converged_distances → [3, ..., P]: accurate, step, converged."""
+        distance, step, fitted = np.moveaxis(found[..., 0, :], -2, 0)
+        return np.stack([distance - step, step, distance]), fitted - step
+
+    values = np.concatenate(
+        [
+            parts(
+                me.converged_distances(
+                    drawn.high[k : k + 16],
+                    drawn.coarse[k : k + 16],
+                    drawn.cheap[k : k + 16],
+                    drawn.weights[k : k + 16],
+                    rest,
+                    counts,
+                    d_m,
+                    targets,
+                    factor,
+                )
+            )[0]
+            for k in range(0, resamples, 16)
+        ],
+        axis=1,
+    )  # [3, resamples, P]
+    (_, step, _), accurate = parts(
+        me.converged_distances(fine, partner, cheap_p, design, rest, counts, d_m, targets, factor)
+    )
+    centre = np.stack([accurate, step, accurate + step])[:, None, :]  # what the resamples estimate, under the fit
     level = multifidelity.expanded_level(confidence, n)
     low_dev, high_dev = np.nanpercentile(values - centre, [50 * (1 - level), 50 * (1 + level)], axis=1)
     return {"deviation_quantiles": [[lo.tolist(), hi.tolist()] for lo, hi in zip(low_dev, high_dev)]}

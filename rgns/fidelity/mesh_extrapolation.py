@@ -22,6 +22,7 @@ benchmarks/mesh_levels.py; null where no asymptotic range was measured), Richard
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -120,6 +121,32 @@ def modelled_crossing(
         upper, at_upper = np.where(above, upper, middle), np.where(above, at_upper, at_middle)
     found = np.where(starts_low, bracket[0], interpolated())
     return np.where(never_falls, np.inf, found)
+
+
+def converged_distances(
+    fine: np.ndarray,
+    partner: np.ndarray,
+    cheap: np.ndarray,
+    weights: np.ndarray,
+    low_u: np.ndarray | None,
+    counts: np.ndarray | None,
+    d_m: np.ndarray,
+    targets: np.ndarray,
+    factor: np.ndarray,
+) -> np.ndarray:
+    """What :func:`distance_intervals` estimates from one set of pairs (``fine``, ``partner``: the accurate and the
+    coarse mesh's values, ``cheap`` their cheap values, ``weights`` their design weights, all [..., n]; the unpaired
+    cheap runs ``low_u`` as :func:`modelled_crossing` takes them), per Richardson ``factor`` r^p − 1 [orders, 1]
+    and probability ``targets`` → [..., 3, orders, P]: the estimate (the corrected curve's distance on ``d_m`` plus
+    the step), the step, and the fit's own distance (the accurate mesh's modelled crossing plus the step)."""
+    bracket = (float(d_m[0]), float(d_m[-1]))
+    ends = [modelled_crossing(mesh, cheap, low_u, targets, bracket, weights, counts) for mesh in (fine, partner)]
+    step = (ends[0] - ends[1])[..., None, :] / factor
+    curve = regression_point_estimate(
+        fine[..., None], cheap[..., None], low_u, d_m, weights=weights, low_u_counts=counts
+    )
+    distance = crossings(rearranged(curve), d_m, targets)[..., None, :] + step  # [..., orders, P]
+    return np.stack([distance, step, ends[0][..., None, :] + step], axis=-3)
 
 
 @dataclass
@@ -231,24 +258,7 @@ def distance_intervals(
     resample_rest = big_n - n <= RESAMPLED_UNPAIRED
     fixed_rest, fixed_counts = (None, None) if resample_rest else binned(low[n:, None], BINS)
     factor = ratio ** np.asarray(orders, dtype=float)[:, None] - 1.0  # [orders, 1]
-    bracket = (float(d_m[0]), float(d_m[-1]))
-
-    def value(
-        fine: np.ndarray,
-        partner: np.ndarray,
-        cheap: np.ndarray,
-        w: np.ndarray,
-        low_u: np.ndarray | None,
-        counts: np.ndarray | None,
-    ) -> np.ndarray:
-        """[..., 3, orders, P]: the estimate (corrected distance plus step), the step, and the fit's own distance
-        (the accurate mesh's modelled crossing plus the step)."""
-        ends = [modelled_crossing(mesh, cheap, low_u, targets, bracket, w, counts) for mesh in (fine, partner)]
-        step = (ends[0] - ends[1])[..., None, :] / factor
-        curve = regression_point_estimate(fine[..., None], cheap[..., None], low_u, d_m, weights=w, low_u_counts=counts)
-        distance = crossings(rearranged(curve), d_m, targets)[..., None, :] + step  # [..., orders, P]
-        return np.stack([distance, step, ends[0][..., None, :] + step], axis=-3)
-
+    value = partial(converged_distances, d_m=d_m, targets=targets, factor=factor)
     rng = np.random.default_rng([seed, 1])  # the model-based resamples' own stream, apart from the pairs'
     rest = low[n:, None] if big_n > n else None
 
