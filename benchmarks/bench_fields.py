@@ -14,11 +14,13 @@ import argparse
 import json
 import os
 import platform
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+from rgns.provenance import commit
 from rgns.scene.fields import CholeskySampler, FieldGrid, realize_fields
 
 GROUP = {
@@ -80,6 +82,8 @@ def main() -> None:
         "target_total_s": 30.0,
         "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
         "numpy": np.__version__,
+        "command": " ".join(["python benchmarks/bench_fields.py", *sys.argv[1:]]),
+        "commit": commit(),
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2) + "\n")
