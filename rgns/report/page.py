@@ -26,14 +26,14 @@ from rgns.surrogates.gate import SURROGATE_NAMES
 CAPTIONS = Path(__file__).resolve().parents[2] / "docs" / "captions"
 # what is known of a tail distance's interval (exceeded with P at most TAIL_PROBABILITY, its mesh step modelled
 # from the cheap route's regressions): on synthetic populations calibrated on the real pairs, the sampling part
-# covered 85-90 % at P 0.1 and 0.01 where the relation bends while it was the pairs bootstrap alone (8467917),
-# and the reported interval 100 %; its present form, the union with a model-based bootstrap (f015f0c), is being
-# measured there
+# covered 85-90 % at P 0.1 and 0.01 where the relation bends while it was the pairs bootstrap alone (8467917), and
+# 85 % with the union's first model-based half (f015f0c), the reported interval 100 %; its present form (6d65e29:
+# resamples drawn from all N cheap runs; pairs in strata since 540711a) is being measured there
 TAIL_PROBABILITY = 0.1
 TAIL_COVERAGE = (
-    "on a synthetic population whose relation bends, its sampling part covered 85-87 % before the model-based "
-    "bootstrap joined it, and how often it covers now is not yet measured on 200 replicates (the reported interval, "
-    "which adds the mesh order's range, covered all: benchmarks/results/pair_coverage_local.md)"
+    "on a synthetic population whose relation bends, its sampling part covered 85 % in earlier forms, and how "
+    "often the present one covers is not yet measured on 200 replicates (the reported interval, which adds the "
+    "mesh order's range, covered all: benchmarks/results/pair_coverage_local.md)"
 )
 STYLE = """
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
