@@ -121,33 +121,28 @@ def residual_resampling(
     targets, factor = np.asarray(PROBABILITIES), np.array([[ratio**order - 1.0]])
 
     def parts(found: np.ndarray) -> np.ndarray:
-        """[..., 3, 1, P] of converged_distances → [3, ..., P]: accurate, step, converged."""
-        distance, step, fitted = np.moveaxis(found[..., 0, :], -2, 0)
-        return np.stack([distance - step, step, distance]), fitted - step
+        """[..., 3, 1, P] of converged_distances (estimate, step, the fit's own distance) → [3, ..., P]: the
+        accurate part, the step, the converged estimate."""
+        distance, step, _ = np.moveaxis(found[..., 0, :], -2, 0)
+        return np.stack([distance - step, step, distance])
 
-    values = np.concatenate(
-        [
-            parts(
-                me.converged_distances(
-                    drawn.high[k : k + 16],
-                    drawn.coarse[k : k + 16],
-                    drawn.cheap[k : k + 16],
-                    drawn.weights[k : k + 16],
-                    rest,
-                    counts,
-                    d_m,
-                    targets,
-                    factor,
-                )
-            )[0]
-            for k in range(0, resamples, 16)
-        ],
-        axis=1,
-    )  # [3, resamples, P]
-    (_, step, _), accurate = parts(
-        me.converged_distances(fine, partner, cheap_p, design, rest, counts, d_m, targets, factor)
-    )
-    centre = np.stack([accurate, step, accurate + step])[:, None, :]  # what the resamples estimate, under the fit
+    batches = [
+        me.converged_distances(
+            drawn.high[k : k + 16],
+            drawn.coarse[k : k + 16],
+            drawn.cheap[k : k + 16],
+            drawn.weights[k : k + 16],
+            rest,
+            counts,
+            d_m,
+            targets,
+            factor,
+        )
+        for k in range(0, resamples, 16)
+    ]
+    values = np.concatenate([parts(found) for found in batches], axis=1)  # [3, resamples, P]
+    _, step, fitted = me.converged_distances(fine, partner, cheap_p, design, rest, counts, d_m, targets, factor)[:, 0]
+    centre = np.stack([fitted - step, step, fitted])[:, None, :]  # what the resamples estimate, under the fit
     level = multifidelity.expanded_level(confidence, n)
     low_dev, high_dev = np.nanpercentile(values - centre, [50 * (1 - level), 50 * (1 + level)], axis=1)
     return {"deviation_quantiles": [[lo.tolist(), hi.tolist()] for lo, hi in zip(low_dev, high_dev)]}
