@@ -36,10 +36,11 @@ from rgns.fidelity.multifidelity import (
     binned,
     corrected_affected_probability,
     design_weights,
+    exceedance_given,
     expanded_level,
-    mean_predicted,
-    predicted_exceedance,
+    pooled_mean,
     rearranged,
+    regression_at,
     regression_point_estimate,
     spread_shape,
     stratified_bootstrap,
@@ -99,10 +100,14 @@ def modelled_crossing(
     rest = None if low_u is None else low_u[..., 0]
     counts = None if low_u_counts is None else low_u_counts[:, 0]
 
+    at_pairs = regression_at(high_p, low_p, low_p, weights)  # fitted once for all the search's thresholds
+    at_rest = None if rest is None else regression_at(high_p, low_p, rest, weights)
+
     def curve(at: np.ndarray) -> np.ndarray:
         thresholds = at[..., None, :]  # [..., 1, P]
-        g_pairs = predicted_exceedance(high_p, low_p, low_p, thresholds, weights)  # [..., n, P]
-        return mean_predicted(g_pairs, high_p, low_p, rest, thresholds, weights, counts)
+        g_pairs = exceedance_given(*at_pairs, low_p, thresholds)  # [..., n, P]
+        g_rest = None if at_rest is None or rest is None else exceedance_given(*at_rest, rest, thresholds)
+        return pooled_mean(g_pairs, g_rest, counts)
 
     lower, upper = np.full(shape, float(bracket[0])), np.full(shape, float(bracket[1]))
     at_lower, at_upper = curve(lower) - targets, curve(upper) - targets  # the curve less P: > 0 below the fall

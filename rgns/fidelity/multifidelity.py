@@ -241,7 +241,8 @@ def predicted_exceedance(
     weights: np.ndarray | None = None,
 ) -> np.ndarray:
     """The control variate of 1[h > t]: P(h > t | l) under h = a + b l + N(0, s(l)²), a, b fitted by
-    (design-weighted) least squares on the pairs finite at both fidelities, evaluated at every low-fidelity value.
+    (design-weighted) least squares on the pairs finite at both fidelities, evaluated at every low-fidelity value
+    (:func:`regression_at` then :func:`exceedance_given`).
 
     The residual spread follows the cheap value, s(l) = s · shape(l) (:func:`spread_shape`), as the real pairs'
     does (case 1's 128 pairs at 0.5 m: residual sd 0.28 m below the median cheap runout, 0.43 m above): one spread
@@ -252,6 +253,15 @@ def predicted_exceedance(
     ``high_p``, ``low_p`` [..., n] (pairs; ``weights`` [..., n] their design weights, None: equal), ``low``
     [..., M] (where to evaluate), ``thresholds`` [T] → [..., M, T]. A non-finite low value (nothing moved)
     gives 1[l > t]; a perfect cheap model (s = 0) gives the step 1[l > t] itself."""
+    return exceedance_given(*regression_at(high_p, low_p, low, weights), low, thresholds)
+
+
+def regression_at(
+    high_p: np.ndarray, low_p: np.ndarray, low: np.ndarray, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The regression of :func:`predicted_exceedance` fitted on the pairs ``high_p``, ``low_p`` [..., n] and
+    evaluated at ``low`` [..., M]: its predicted high value and residual spread there, each [..., M]. Apart from
+    the thresholds, so that a search over thresholds fits once."""
     finite = np.isfinite(high_p) & np.isfinite(low_p)
     w = np.where(finite, 1.0 if weights is None else weights, 0.0)
     total = w.sum(-1, keepdims=True)
@@ -269,6 +279,12 @@ def predicted_exceedance(
     scale = np.maximum(scale, 1e-9 * (1.0 + np.sqrt(var / np.maximum(count, 1) * count)))
     predicted = mean_h + slope * (low - mean_l)  # [..., M]
     spread = scale * spread_shape(np.abs(residual), dl, w, low - mean_l)  # [..., M]
+    return predicted, spread
+
+
+def exceedance_given(predicted: np.ndarray, spread: np.ndarray, low: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
+    """P(h > t | l) at each cheap value ``low`` [..., M] from the regression's ``predicted`` value and ``spread``
+    there (:func:`regression_at`) and ``thresholds`` [T] → [..., M, T]; a non-finite ``low`` gives 1[l > t]."""
     smooth = special.ndtr((predicted[..., None] - thresholds) / spread[..., None])  # norm.cdf less its wrapper
     step = low[..., None] > thresholds
     return np.where(np.isfinite(low)[..., None], smooth, step)
@@ -331,13 +347,19 @@ def mean_predicted(
     fitted on the pairs ``high_p``, ``low_p`` [..., n] with ``weights``), given its values at the pairs
     ``g_pairs`` [..., n, T]: the unpaired cheap values ``low_u`` [..., M] (None: none), or binned [M] with
     ``low_u_counts`` [M] → [..., T]."""
-    if low_u is None:
+    g_rest = None if low_u is None else predicted_exceedance(high_p, low_p, low_u, thresholds, weights)
+    return pooled_mean(g_pairs, g_rest, low_u_counts)
+
+
+def pooled_mean(g_pairs: np.ndarray, g_rest: np.ndarray | None, counts: np.ndarray | None) -> np.ndarray:
+    """The mean over all N realizations of a function given at the pairs ``g_pairs`` [..., n, T] and at the
+    unpaired runs ``g_rest`` [..., M, T] (None: none), each standing for ``counts`` [M] runs (None: one) → [..., T]."""
+    if g_rest is None:
         return g_pairs.mean(-2)
-    g_rest = predicted_exceedance(high_p, low_p, low_u, thresholds, weights)  # [..., M, T]
-    if low_u_counts is None:
+    if counts is None:
         return np.concatenate([g_pairs, g_rest], axis=-2).mean(-2)
-    g_sum = g_pairs.sum(-2) + (g_rest * low_u_counts[:, None]).sum(-2)
-    return g_sum / (g_pairs.shape[-2] + float(low_u_counts.sum()))
+    g_sum = g_pairs.sum(-2) + (g_rest * counts[:, None]).sum(-2)
+    return g_sum / (g_pairs.shape[-2] + float(counts.sum()))
 
 
 def regression_point_estimate(
