@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
+RESULTS = "benchmarks/results"  # relative to the checkout's root
 
 
 def config_digest(config: dict[str, Any]) -> str:
@@ -21,7 +22,8 @@ def config_digest(config: dict[str, Any]) -> str:
 
 
 def commit(root: Path = REPO_ROOT) -> str:
-    """The checkout's short commit, marked when files differ from it; 'no git checkout' otherwise."""
+    """The checkout's short commit, marked when tracked files differ from it; 'no git checkout' otherwise. The
+    benchmarks' result files are outputs, not code: a benchmark still writing its own does not mark another's."""
 
     def git(*args: str) -> str:
         return subprocess.run(
@@ -30,7 +32,11 @@ def commit(root: Path = REPO_ROOT) -> str:
 
     try:
         head = git("rev-parse", "--short=10", "HEAD")
-        return head + (" with local changes" if git("status", "--porcelain", "--untracked-files=no") else "")
+        return head + (
+            " with local changes"
+            if git("status", "--porcelain", "--untracked-files=no", "--", ".", f":(exclude){RESULTS}")
+            else ""
+        )
     except (OSError, subprocess.SubprocessError):
         return "no git checkout"
 
