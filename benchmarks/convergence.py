@@ -31,6 +31,7 @@ import argparse
 import copy
 import json
 import platform
+import subprocess
 import time
 from pathlib import Path
 
@@ -45,6 +46,7 @@ from rgns.config import load_config  # noqa: E402
 from rgns.engines.batch import simulate_mpm  # noqa: E402
 from rgns.engines.metrics import MetricSettings  # noqa: E402
 from rgns.montecarlo.runs import measure  # noqa: E402
+from rgns.provenance import commit  # noqa: E402
 from rgns.scene.geometry import Scene, seed_particles  # noqa: E402
 from rgns.scene.realizations import CaseInputs, Realization, draw_realization  # noqa: E402
 from rgns.trajectories import frame_count  # noqa: E402
@@ -246,8 +248,9 @@ def difference(rows: list[dict], reference: list[dict], key: str) -> tuple[float
     return (float(np.mean([abs(rows[k][key] - reference[k][key]) for k in both])) if both else float("nan")), len(both)
 
 
-def slope_section(parts: dict, axes) -> tuple[list[str], dict]:
-    """Both shapes' levels against the B-spline references, orders and Richardson values, the plot."""
+def slope_section(parts: dict, axes) -> tuple[list[str], dict, dict]:
+    """Both shapes' levels against the B-spline references (the table's numbers, per shape and h), orders and
+    Richardson values, the plot."""
     shapes = [s for s in ("linear", "bspline") if f"slopes-{s}" in parts]
     reference_levels = parts["slopes-bspline"]["levels"]
     references = [h for h in ("0.5", "0.25") if h in reference_levels]
@@ -268,10 +271,12 @@ def slope_section(parts: dict, axes) -> tuple[list[str], dict]:
         + " |",
         "|---|---|---:|---:|---:|---:|---:|" + "---|" * len(references),
     ]
-    fits = {}
+    fits: dict = {}
+    table: dict = {"range": spread, "shapes": {}}
     for shape in shapes:
         levels = parts[f"slopes-{shape}"]["levels"]
         cells = [h for h in SLOPE_CELLS if str(h) in levels]
+        table["shapes"][shape] = {}
         for h in cells:
             rows = levels[str(h)]["rows"]
             ok = sorted(finished(rows))
@@ -279,12 +284,23 @@ def slope_section(parts: dict, axes) -> tuple[list[str], dict]:
             diverged = len(rows) - len(ok)
             means = [float(np.mean([rows[k][key] for k in ok])) for key in METRICS]
             cols = []
+            against: dict = {}
             for ref in references:
                 parts_ = []
+                against[ref] = {}
                 for key in METRICS:
                     value, n = difference(rows, reference_levels[ref]["rows"], key)
+                    against[ref][key] = {"mean_abs": value, "share_of_range": value / spread[key], "n": n}
                     parts_.append(f"{value:.2f} ({100 * value / spread[key]:.0f} %)")
                 cols.append(", ".join(parts_) + f" [n {n}]")
+            table["shapes"][shape][f"{h:g}"] = {
+                "s_per_realization": levels[str(h)]["s_per_realization"],
+                "finished": len(ok),
+                "failed": failed,
+                "diverged": diverged,
+                "means": dict(zip(METRICS, means)),
+                "against_bspline": against,
+            }
             status = f"{failed} of {len(ok)}" + (f" (+{diverged} diverged)" if diverged else "")
             lines.append(
                 f"| {shape} | {h:g} | {levels[str(h)]['s_per_realization']:.1f} | {status} | {means[0]:.2f} | "
@@ -322,7 +338,7 @@ def slope_section(parts: dict, axes) -> tuple[list[str], dict]:
             f"* {shape} (h = {', '.join(f'{h:g}' for h in fit['runout_m']['cells'])} m, realizations "
             f"{fit['runout_m']['realizations']}): {text}"
         )
-    return lines + [""], fits
+    return lines + [""], fits, table
 
 
 def column_section(parts: dict, ax) -> list[str]:
@@ -387,6 +403,14 @@ def diagnose_section(parts: dict) -> list[str]:
     ]
 
 
+def committed_in(path: Path) -> str:
+    """The commit that last committed ``path``: when a saved part was measured (parts record no commit)."""
+    done = subprocess.run(
+        ["git", "-C", str(REPO), "log", "-1", "--format=%h", "--", str(path)], capture_output=True, text=True
+    )
+    return done.stdout.strip() or "not committed"
+
+
 def report() -> None:
     parts = {path.stem: json.loads(path.read_text()) for path in sorted(PARTS.glob("*.json"))}
     fig, axes = plt.subplots(1, 4, figsize=(18, 4.2))
@@ -398,9 +422,10 @@ def report() -> None:
         "them within a row of levels only).",
         "",
     ]
-    fits = {}
+    fits: dict = {}
+    table: dict = {}
     if "slopes-bspline" in parts:
-        section, fits = slope_section(parts, axes)
+        section, fits, table = slope_section(parts, axes)
         lines += section
     lines += column_section(parts, axes[3])
     lines += diagnose_section(parts)
@@ -412,7 +437,14 @@ def report() -> None:
     machine = next(iter(parts.values()))["machine"] if parts else ""
     lines += [f"Machine: {machine}."]
     (OUT / "convergence.md").write_text("\n".join(lines) + "\n")
-    (OUT / "convergence.json").write_text(json.dumps(fits, indent=1))
+    record = {
+        "command": "python benchmarks/convergence.py --report",
+        "commit": commit(),
+        "parts_committed_in": {name: committed_in(PARTS / f"{name}.json") for name in parts},
+        "slopes": table,
+        "orders": fits,
+    }
+    (OUT / "convergence.json").write_text(json.dumps(record, indent=1))
     print("\n".join(lines))
 
 
