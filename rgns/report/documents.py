@@ -358,6 +358,99 @@ def bench_fields() -> str:
     return "\n".join(lines)
 
 
+def bench_convergence() -> str:
+    """docs/benchmarks.md: the embedded MPM's mesh error on case-1 slopes, per shape function and cell size, against
+    the B-spline answer at 0.5 m, and the observed orders."""
+    record = result("convergence.json")
+    parts = sorted(set(record["parts_committed_in"].values()))
+    made = f"`convergence.json`, its parts measured at {', '.join(parts)}, tabled at {record['commit']}"
+    command = "`python benchmarks/convergence.py`, then `--report`"
+    spread = record["slopes"]["range"]
+    units = {"runout_m": "m", "volume_m2": "m²", "influence_m": "m"}
+    lines = [
+        "| shape, cell size | mean \\|Δ\\| from the B-spline 0.5 m answer: R / V / I (% of its range) | failed "
+        "(R > 0) | command | made at |",
+        "|---|---|---|---|---|",
+    ]
+    for shape, levels in record["slopes"]["shapes"].items():
+        for cell, level in levels.items():
+            if cell == "0.5" and shape == "bspline":
+                continue  # the reference itself
+            against = level["against_bspline"]["0.5"]
+            error = " / ".join(
+                f"{against[key]['mean_abs']:.2f} {unit} ({100 * against[key]['share_of_range']:.0f} %)"
+                for key, unit in units.items()
+            )
+            n = against["runout_m"]["n"]
+            diverged = f", {level['diverged']} diverged" if level["diverged"] else ""
+            lines.append(
+                f"| {'B-spline' if shape == 'bspline' else 'bilinear'}, {cell} m | {error} on {n} | "
+                f"{level['failed']} of {level['finished']}{diverged} | {command} | {made} |"
+            )
+    orders = record["orders"]["bspline"]
+    fitted = [
+        f"{key.split('_')[0]} p = {fit['order']:.2f}" + ("" if fit["asymptotic"] else " (no asymptotic range)")
+        for key, fit in orders.items()
+    ]
+    lines += [
+        "",
+        f"Range of the B-spline 0.5 m answers: R {spread['runout_m']:.2f} m, V {spread['volume_m2']:.1f} m², "
+        f"I {spread['influence_m']:.2f} m. Observed B-spline orders from h = "
+        f"{', '.join(f'{h:g}' for h in orders['runout_m']['cells'][-3:])} m on realizations "
+        f"{orders['runout_m']['realizations']}: {'; '.join(fitted)}.",
+    ]
+    return "\n".join(lines)
+
+
+def convergence_table() -> str:
+    """docs/engine.md: every shape and cell size of the mesh-convergence study, its means and differences from the
+    B-spline answers at 0.5 m (every realization) and at 0.25 m (the subset run there)."""
+    record = result("convergence.json")
+    keys = ("runout_m", "volume_m2", "influence_m")
+    digits = {"runout_m": 2, "volume_m2": 1, "influence_m": 2}
+    shapes = record["slopes"]["shapes"]
+    counts = {ref: shapes["bspline"]["1"]["against_bspline"][ref]["runout_m"]["n"] for ref in ("0.5", "0.25")}
+    lines = [
+        f"| shape | h (m) | failed | mean R / V / I | \\|ΔR\\|, \\|ΔV\\|, \\|ΔI\\| vs B-spline 0.5 m "
+        f"({counts['0.5']}) | vs B-spline 0.25 m ({counts['0.25']}) |",
+        "|---|---|---:|---|---|---|",
+    ]
+    for shape, levels in shapes.items():
+        for cell, level in levels.items():
+            name, h = (
+                (f"**{shape}**", f"**{cell} (default)**" if cell == "1" else cell)
+                if shape == "bspline"
+                else (
+                    shape,
+                    cell,
+                )
+            )
+            means = " / ".join(f"{level['means'][k]:.{digits[k]}f}" for k in keys)
+            columns = []
+            for ref in ("0.5", "0.25"):
+                against = level["against_bspline"][ref]
+                if shape == "bspline" and cell == ref:
+                    columns.append("–")
+                    continue
+                shares = ref == "0.5" or (shape == "bspline" and cell == "1")
+                text = ", ".join(
+                    f"{against[k]['mean_abs']:.{digits[k]}f}"
+                    + (f" ({100 * against[k]['share_of_range']:.0f} %)" if shares else "")
+                    for k in keys
+                )
+                n = against["runout_m"]["n"]
+                if n != counts[ref]:
+                    text += f" ({n})"
+                columns.append(f"**{text}**" if shape == "bspline" and cell == "1" else text)
+            diverged = f", {level['diverged']} diverged" if level["diverged"] else ""
+            lines.append(
+                f"| {name} | {h} | {level['failed']} of {level['finished']}{diverged} | {means} | "
+                + " | ".join(columns)
+                + " |"
+            )
+    return "\n".join(lines)
+
+
 RENDERERS: dict[str, Callable[[], str]] = {
     "ood-table": ood_table,
     "endstate-untouched": endstate_untouched,
@@ -367,6 +460,8 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "cheap-route": cheap_route_choice,
     "tuned-untouched": tuned_untouched,
     "bench-fields": bench_fields,
+    "bench-convergence": bench_convergence,
+    "convergence-table": convergence_table,
 }
 
 
