@@ -55,6 +55,12 @@ P 0.01 quantiles by −0.12 m at 0.5 m and +0.16 m at 1 m, a step 0.3 m short). 
 member draws its residuals from the 32 real realizations nearest to it in cheap runout, so that their spread grows
 with the cheap value as the real pairs' does: the modelled mesh step assumes one spread, and this tests it.
 
+--points R: the point estimates alone (no bootstrap: a replicate takes ~0.1 s) over R replicates of the same
+draws (replicate r of a seed draws what its coverage replicate r draws), per probability the converged runout's
+bias and sd against the answer and its parts' (the corrected accurate distance, the mesh step), to
+benchmarks/results/pair_coverage_points.json under the population and seed: the spread a coverage run's
+intervals should imply, measured on many more replicates than a coverage run holds.
+
 --sabotage: the same population with the cheap rows permuted across realizations (correlation ~0 with the
 MPM). Results are checkpointed after every replicate (a rerun with the same seed resumes) to
 benchmarks/results/pair_coverage_superpopulation.json (finite: pair_coverage.json, local:
@@ -78,6 +84,7 @@ import pandas as pd
 import torch
 
 from rgns.config import load_config
+from rgns.fidelity.mesh_extrapolation import nested_levels, point_distances
 from rgns.fidelity.multifidelity import control_variate, rearranged, regression_control_variate, route
 from rgns.fidelity.multilevel import richardson_step
 from rgns.fidelity.outputs import best_estimate, correct, paired_rows
@@ -396,6 +403,47 @@ def run_replicate(
     keys = ("route", "reason", "correlation_runout", "speedup_at_equal_error")
     found["allocation"] = {key: allocation[key] for key in keys} | {"applied": "plain MPM" if plain else None}
     return found
+
+
+def point_replicate(population: dict, settings: dict, rng: np.random.Generator) -> np.ndarray:
+    """One replicate's converged runout exceeded with each P and its mesh step, as rule multifidelity estimates
+    them (rgns.fidelity.mesh_extrapolation.point_distances on the grid runout_correction reads the curve on),
+    without the intervals → [2, P]."""
+    low, high, coarse, plan = tables(population, settings, rng)
+    d_m = distance_grid(pd.concat([low["runout_m"], high["runout_m"]]).to_numpy(float))
+    high, coarse, low = nested_levels(low, high, coarse)
+    ratio = float(settings["coarse_cell_size_m"]) / float(settings["high_cell_size_m"])
+    order = np.asarray([float(settings["mesh_order"]["runout_m"][1])])
+    strata = row_strata(plan, low["index"].tolist(), len(high))
+    values = (t["runout_m"].to_numpy(float) for t in (high, coarse, low))
+    probabilities = [float(p) for p in QUANTITIES[1:]]
+    return point_distances(*values, d_m, probabilities, ratio, order, strata)[:2, 0, :]
+
+
+def points(population: dict, settings: dict, truth: dict, seed: int, replicates: int, sabotage: bool) -> dict:
+    """:func:`point_replicate` over ``replicates`` replicates (replicate r drawn as coverage replicate r is):
+    per probability the converged estimate's and its parts' bias against the answer, sd, and the parts'
+    correlation."""
+    found = np.array(
+        [
+            point_replicate(population, settings, np.random.default_rng([seed, r, int(sabotage)]))
+            for r in range(replicates)
+        ]
+    )  # [R, 2, P]
+    record = {}
+    for j, p in enumerate(QUANTITIES[1:]):
+        estimate, step = found[:, 0, j], found[:, 1, j]
+        accurate = estimate - step
+        answer = truth[p]
+        parts = {
+            "converged": (estimate, answer["converged"]),
+            "accurate": (accurate, answer["accurate"]),
+            "step": (step, answer["converged"] - answer["accurate"]),
+        }
+        record[p] = {
+            name: {"bias": float(np.mean(v) - a), "sd": float(np.std(v, ddof=1))} for name, (v, a) in parts.items()
+        } | {"correlation": pearson(accurate, step)}
+    return record
 
 
 def check(population: dict, settings: dict, cost: dict[str, float], rng_seed: list[int], seed: int) -> dict:
@@ -757,6 +805,7 @@ def main() -> None:
     parser.add_argument("--sabotage", action="store_true", help="the cheap rows permuted across realizations")
     parser.add_argument("--minutes", type=float, default=None, help="stop starting replicates after this long")
     parser.add_argument("--report", action="store_true", help="only write the md from the json")
+    parser.add_argument("--points", type=int, default=None, help="only the point estimates, over this many replicates")
     parser.add_argument(
         "--population",
         choices=sorted(POPULATIONS),
@@ -797,6 +846,25 @@ def main() -> None:
     name = "sabotage" if args.sabotage else "normal"
     if args.sabotage:
         population = sabotaged(population, args.seed)  # the answers stand: the MPM values are the same
+    if args.points is not None:
+        record = points(population, settings, truth, args.seed, args.points, args.sabotage)
+        path = OUT / "pair_coverage_points.json"
+        saved = json.loads(path.read_text()) if path.exists() else {}
+        key = f"{args.population}{'' if args.strata is None else ' strata ' + str(args.strata)}, seed {args.seed}"
+        saved[key + (", sabotage" if args.sabotage else "")] = {
+            "command": f"OMP_NUM_THREADS=1 .venv/bin/python benchmarks/pair_coverage.py --points {args.points} "
+            f"--seed {args.seed} --population {args.population}"
+            + (" --sabotage" if args.sabotage else "")
+            + ("" if args.strata is None else " --strata " + " ".join(f"{q:g}" for q in args.strata)),
+            "commit": commit(),
+            "replicates": args.points,
+            "design": meta["design"],
+            "seconds": time.perf_counter() - began,
+            "points": record,
+        }
+        checkpoint(saved, path)
+        print(json.dumps(saved[key + (", sabotage" if args.sabotage else "")], indent=1))
+        return
     result = json.loads(result_path.read_text()) if result_path.exists() else {}
     if result.get("meta", {}).get("population_seed") not in (None, args.population_seed):
         result = {}  # another population: start over

@@ -154,6 +154,29 @@ def converged_distances(
     return np.stack([distance, step, ends[0][..., None, :] + step], axis=-3)
 
 
+def point_distances(
+    high: np.ndarray,
+    coarse: np.ndarray,
+    low: np.ndarray,
+    d_m: np.ndarray,
+    probabilities: list[float],
+    ratio: float,
+    orders: np.ndarray,
+    strata: np.ndarray | None = None,
+) -> np.ndarray:
+    """What :func:`distance_intervals` estimates from the sample itself (its arguments, less the bootstraps'):
+    :func:`converged_distances` of the pairs with the unpaired cheap runs as they are, or binned beyond
+    RESAMPLED_UNPAIRED → [3, orders, P] (the estimate, the step, the fit's own distance)."""
+    n, big_n = len(high), len(low)
+    targets = np.asarray(probabilities, dtype=float)
+    factor = ratio ** np.asarray(orders, dtype=float)[:, None] - 1.0  # [orders, 1]
+    rest, counts = (low[n:, None], None) if big_n - n <= RESAMPLED_UNPAIRED else binned(low[n:, None], BINS)
+    with np.errstate(invalid="ignore"):  # inf − inf where neither curve falls to P: NaN, read as open
+        return converged_distances(
+            high, coarse, low[:n], design_weights(strata, n), rest if big_n > n else None, counts, d_m, targets, factor
+        )
+
+
 @dataclass
 class DistanceIntervals:
     """Per order [value, low, high] and probability: the converged distance's interval ends (NaN: open) and the
@@ -272,7 +295,7 @@ def distance_intervals(
         return value(high[pick], coarse[pick], low[pick], weights[pick], low_u, counts)[..., :2, :, :]
 
     with np.errstate(invalid="ignore"):  # inf − inf where neither curve falls to P: NaN, read as open
-        point = value(high, coarse, low[:n], weights, rest if resample_rest else fixed_rest, fixed_counts)
+        point = point_distances(high, coarse, low, d_m, probabilities, ratio, orders, strata)
         evaluated = max(d_m.size, targets.size) * (big_n if resample_rest else n + BINS)  # the largest array
         batch = max(1, 2_000_000 // max(1, evaluated))
         paired = stratified_bootstrap(statistic, n, big_n, confidence, RESAMPLES, seed, batch, strata, resample_rest)
