@@ -462,6 +462,19 @@ def checkpoint(result: dict, path: Path) -> None:
     os.replace(temporary, path)
 
 
+def merged(path: Path, name: str, result: dict) -> dict:
+    """``result`` with the file's other mode and findings kept as the file now holds them, and both modes'
+    commands: a normal and a sabotage run of one population may write the same file at once, each only its own
+    mode, while its findings are edited."""
+    current = json.loads(path.read_text()) if path.exists() else {}
+    if current.get("meta", {}).get("population_seed") != result["meta"].get("population_seed"):
+        return result
+    commands = {*current["meta"].get("commands", []), *result["meta"]["commands"]}
+    other = {key: value for key, value in current.items() if (key in MODES and key != name) or key == "findings"}
+    meta = result["meta"] | {"commands": sorted(commands, key=lambda c: "--sabotage" in c)}
+    return result | other | {"meta": meta}
+
+
 def verdict(interval: list[float | None], answer: float) -> str:
     """ "in", "below" (the interval lies below the answer), "above", "open in" (open above, its lower end at
     most the answer: a one-sided interval that holds it), or "open" (else an end left open)."""
@@ -905,6 +918,7 @@ def main() -> None:
         mode["seconds_per_replicate"] = float(np.median(mode["seconds"]))
         mode["summary"] = summary(mode["replicates"], truth)
         mode["allocation"] = allocation_summary(mode["replicates"], result["meta"])
+        result = merged(result_path, name, result)
         checkpoint(result, result_path)
         print(f"{name}: replicate {number + 1} of {args.replicates}, {mode['seconds'][-1]:.1f} s", flush=True)
     write_report(result, report_path)
