@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -435,6 +436,15 @@ def subset_sampling(cheap_runout: np.ndarray, n: int, distances: dict) -> str:
     )
 
 
+def headline_source(run_json: Path) -> str:
+    """Which run a headline comes from: its multifidelity.json within the run's checkout, and that checkout's
+    commit (a fresh clone's, as benchmarks/fresh_run.py keeps one)."""
+    checkout = run_json.resolve().parents[3]
+    done = subprocess.run(["git", "-C", str(checkout), "log", "-1", "--format=%h"], capture_output=True, text=True)
+    made = f"a clone at {done.stdout.strip()}" if done.returncode == 0 else f"`{checkout}`, no git checkout"
+    return f"`{run_json.resolve().relative_to(checkout)}` of a default run in {made}"
+
+
 def against_run(case: str, cells: list[float], run_json: Path, confidence: float = 0.95) -> list[str]:
     """The default run's headline (``run_json``: its multifidelity.json) against the direct reference on the
     realizations run at 0.25 m, and the cost of plain Monte Carlo at 0.25 m for the headline's error."""
@@ -448,7 +458,7 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
         f"Reference: the {len(indices)} realizations run at 0.25 m (above), plus the Richardson step from "
         f"0.5 to 0.25 m at the runout order the run used, {order[1]:g} [{order[0]:g}, {order[2]:g}]; its interval "
         f"is the envelope of the {confidence:.0%} bootstrap intervals at the order's value and ends. Headline: "
-        f"`{run_json}`.",
+        f"{headline_source(run_json)}.",
         "",
         "| quantity | headline (best estimate) [interval] | direct reference [interval] | reference inside "
         "the headline's interval | intervals overlap |",
@@ -461,7 +471,10 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
         if float(p) * len(indices) >= MIN_BEYOND
     }
     tables = run_tables(run_json, case)
-    matched = None if tables is None else matched_chain(tables, run["cost"], len(indices))
+    among = 0 if tables is None else int((tables[1]["index"] < len(indices)).sum())
+    # the run's chain on the reference's realizations needs the run's pairs among them: the first pairs of a
+    # simple random draw of the first realizations were; pairs drawn in strata over all N mostly are not
+    matched = matched_chain(tables, run["cost"], len(indices)) if tables is not None and among >= 8 else None
     reducers = {None: np.mean} | {p: exceeded_with(float(p)) for p in distances}  # None: the mean
     references = {p: reference(values["runout_m"], order, reduce) for p, reduce in reducers.items()}
     for record, suffix in ((converged, ""), (matched, f" — the run's chain on the reference's {len(indices)}")):
@@ -513,6 +526,9 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
             "route, and its pairs at 0.5 and 1 m among them) on those realizations alone: the population the "
             "reference describes."
             if matched is not None
+            else f"; the run's own chain on those {len(indices)} alone is not given: {among} of its pairs are among "
+            "them (its pairs are drawn in strata over all its realizations)."
+            if tables is not None
             else "."
         ),
     ]
