@@ -10,7 +10,8 @@ under GNU time (wall seconds, and the largest process's peak resident memory). T
 run is recorded: a run beside other work is slower, and says so. From the run's own files it takes the best
 estimate per Monte Carlo case (``results/report/<case>/multifidelity.json``: the means and distances carried
 to the converged mesh with their intervals and sampling parts, the pairs' validation, the allocation), the
-convergence of the running moments (``convergence.json``), and renders the page's first screen in a
+convergence of the running moments (``convergence.json``), where the time went (per rule and route, from
+Snakemake's log: jobs, their summed seconds, the span), and renders the page's first screen in a
 1,400 x 900 window with headless Chromium (Debian's ``chromium``). Writes
 ``benchmarks/results/fresh_run_<name>.json`` (the README and docs/site.md render their figures from it:
 rgns.report.documents) and ``docs/screens/<name>_first_screen.png``, and copies the figures the docs show.
@@ -22,6 +23,7 @@ import argparse
 import json
 import os
 import platform
+import re
 import shutil
 import subprocess
 import tempfile
@@ -137,6 +139,38 @@ def screenshot(page: Path, out: Path) -> None:
     )
 
 
+STAMP = re.compile(r"^\[(\w{3} \w{3} +\d+ \d\d:\d\d:\d\d \d{4})\]$")
+
+
+def rule_times(log: Path) -> dict[str, dict[str, float]]:
+    """Where a run's time went, from Snakemake's log: per rule (and route, where the rule has one) the jobs, their
+    summed wall seconds and the span from the first start to the last finish, largest sum first."""
+    started: dict[str, tuple[str, float]] = {}
+    rules: dict[str, dict[str, float]] = {}
+    stamp, name = 0.0, ""
+    for line in log.read_text().splitlines():
+        if found := STAMP.match(line):
+            stamp = datetime.strptime(found[1], "%a %b %d %H:%M:%S %Y").timestamp()
+        elif found := re.match(r"^(?:local)?rule (\w+):$", line):
+            name = found[1]
+        elif found := re.match(r"^ +jobid: (\d+)$", line):
+            started[found[1]] = (name, stamp)
+        elif (found := re.match(r"^ +wildcards: .*\broute=(\w+)", line)) and started:
+            job = next(reversed(started))
+            started[job] = (f"{started[job][0]} [{found[1]}]", started[job][1])
+        elif (found := re.match(r"^Finished jobid: (\d+)", line)) and found[1] in started:
+            key, began = started.pop(found[1])
+            entry = rules.setdefault(key, {"jobs": 0, "job_seconds": 0.0, "first": began, "last": stamp})
+            entry["jobs"] += 1
+            entry["job_seconds"] += stamp - began
+            entry["first"], entry["last"] = min(entry["first"], began), max(entry["last"], stamp)
+    spans = {
+        key: {"jobs": e["jobs"], "job_seconds": e["job_seconds"], "span_s": e["last"] - e["first"]}
+        for key, e in rules.items()
+    }
+    return dict(sorted(spans.items(), key=lambda item: -item[1]["job_seconds"]))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--configfile", default=None, help="a config in the repository (default: config/config.yaml)")
@@ -162,6 +196,7 @@ def main() -> None:
         "install_s": install_s,
         "load_before": list(load),
         **run,
+        "rules": rule_times(next((work / ".snakemake" / "log").glob("*.snakemake.log"))),
         "cases": {case: headline(work / "results" / "report" / case, work / "results" / "mc" / case) for case in cases},
     }
     path = RESULTS / f"fresh_run_{name}.json"
