@@ -893,6 +893,7 @@ def main() -> None:
     if mode.get("seed") != args.seed:
         mode = {"seed": args.seed, "replicates": [], "seconds": []}
     mode["commits"] = sorted({*mode.get("commits", []), commit()})  # the code each part ran
+    mode["design"] = meta["design"]  # a sabotage part is set beside the normal part only under the same design
     result[name] = mode
     print(
         f"{name}: {len(mode['replicates'])} replicates done before; setup {time.perf_counter() - began:.0f} s",
