@@ -187,6 +187,53 @@ def coverage_row(label: str, record: dict[str, Any]) -> str:
     return f"| {label} ({len(normal['replicates'])}, seed {normal['seed']}, {design}) | " + " | ".join(cells) + " |"
 
 
+def spreads(record: dict[str, Any], probability: str) -> tuple[float, float]:
+    """Over a coverage run's replicates, the spread its sampling intervals imply (mean half-width / 1.96, over the
+    closed ones) and the estimates' sd, at one probability."""
+    import numpy as np
+
+    rows = [r[probability] for r in record["normal"]["replicates"]]
+    widths = [hi - lo for lo, hi in (r["at_order"] for r in rows) if lo is not None and hi is not None]
+    estimates = [r["estimate"] for r in rows if r["estimate"] is not None]
+    return float(np.mean(widths)) / 2.0 / 1.959964, float(np.std(estimates, ddof=1))
+
+
+def point_spreads(kind: str) -> str:
+    """pair_coverage_points.json's sd of the converged estimate per development seed of one population, at P 0.1
+    and 0.01 ('' where it holds none)."""
+    points = result("pair_coverage_points.json")
+    runs = {key: entry for key, entry in points.items() if key.startswith(f"{kind}, seed ")}
+    if not runs:
+        return ""
+    return "; over the point estimates alone, " + ", ".join(
+        f"{entry['replicates']:,} replicates of seed {key.split('seed ')[1]}: "
+        + " / ".join(f"{entry['points'][p]['converged']['sd']:.2f}" for p in ("0.1", "0.01"))
+        for key, entry in runs.items()
+    )
+
+
+def sabotage_line(record: dict[str, Any]) -> str:
+    """A coverage run's sabotage part, if it has one: the cheap rows permuted across realizations, what the
+    allocation asked for, how often the sampling intervals covered and how much wider they are than the normal
+    run's ('' where there is none)."""
+    sabotage = record.get("sabotage", {})
+    if not sabotage.get("replicates") or sabotage.get("design") != record["meta"]["design"]:
+        return ""  # none, or one of another design than the normal part's (before modes recorded theirs)
+    count, routes = len(sabotage["replicates"]), sabotage["allocation"]["routes"]
+    cells, ratios = [], []
+    for key in ("mean", "0.5", "0.1", "0.01"):
+        entry = sabotage["summary"][key]["converged"]["at_order"]
+        normal = record["normal"]["summary"][key]["converged"]["at_order"]
+        cells.append(f"{100 * entry['coverage']:.1f} % ({entry['below']} / {entry['above']})")
+        ratios.append(f"{entry['half_width'] / normal['half_width']:.1f}×")
+    return (
+        f" Sabotage, the cheap rows permuted across realizations ({count} replicates, seed {sabotage['seed']}, made at "
+        f"{', '.join(sabotage['commits'])}): the allocation called for plain MPM in {routes.get('plain MPM', 0)} of "
+        f"{count}; the sampling intervals of the mean and of R at P 0.5 / 0.1 / 0.01 covered {' / '.join(cells)}, "
+        f"{' / '.join(ratios)} as wide as the normal run's."
+    )
+
+
 def pair_coverage() -> str:
     """README: how often the default design's intervals cover the converged answer, per synthetic population."""
     populations = {
@@ -213,6 +260,17 @@ def pair_coverage() -> str:
         f"Made at {', '.join(commits)} by "
         + "; ".join(f"`{record['meta']['commands'][0]}`" for record in records.values())
         + ".",
+        "",
+        "The spread (m) the sampling intervals of R at P 0.1 / 0.01 imply (mean half-width / 1.96) against the "
+        "estimates' sd over the same replicates"
+        + "".join(
+            f"; {kind}: "
+            + " / ".join("{:.2f} against {:.2f}".format(*spreads(record, p)) for p in ("0.1", "0.01"))
+            + point_spreads(kind)
+            for kind, record in zip(("super", "local"), records.values())
+        )
+        + " (`pair_coverage.py --points 1000`, development seeds, `benchmarks/results/pair_coverage_points.json`)."
+        + "".join(sabotage_line(record) for record in records.values()),
     ]
     return "\n".join(lines)
 
