@@ -167,14 +167,23 @@ def point_distances(
     """What :func:`distance_intervals` estimates from the sample itself (its arguments, less the bootstraps'):
     :func:`converged_distances` of the pairs with the unpaired cheap runs as they are, or binned beyond
     RESAMPLED_UNPAIRED → [3, orders, P] (the estimate, the step, the fit's own distance)."""
-    n, big_n = len(high), len(low)
+    n = len(high)
     targets = np.asarray(probabilities, dtype=float)
     factor = ratio ** np.asarray(orders, dtype=float)[:, None] - 1.0  # [orders, 1]
-    rest, counts = (low[n:, None], None) if big_n - n <= RESAMPLED_UNPAIRED else binned(low[n:, None], BINS)
     with np.errstate(invalid="ignore"):  # inf − inf where neither curve falls to P: NaN, read as open
         return converged_distances(
-            high, coarse, low[:n], design_weights(strata, n), rest if big_n > n else None, counts, d_m, targets, factor
+            high, coarse, low[:n], design_weights(strata, n), *held_unpaired(low, n), d_m, targets, factor
         )
+
+
+def held_unpaired(low: np.ndarray, n: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The unpaired cheap runs (``low`` past its first ``n``, the pairs') as an estimate from the sample holds them:
+    as they are [M, 1] up to RESAMPLED_UNPAIRED, beyond it :func:`binned`, with their counts; (None, None) if none."""
+    if len(low) == n:
+        return None, None
+    if len(low) - n <= RESAMPLED_UNPAIRED:
+        return low[n:, None], None
+    return binned(low[n:, None], BINS)
 
 
 @dataclass
@@ -284,7 +293,8 @@ def distance_intervals(
     targets = np.asarray(probabilities, dtype=float)
     weights = design_weights(strata, n)
     resample_rest = big_n - n <= RESAMPLED_UNPAIRED
-    fixed_rest, fixed_counts = (None, None) if resample_rest else binned(low[n:, None], BINS)
+    held = held_unpaired(low, n)  # as the sample's own estimate holds them; the pairs bootstrap resamples them
+    fixed_rest, fixed_counts = (None, None) if resample_rest else held
     factor = ratio ** np.asarray(orders, dtype=float)[:, None] - 1.0  # [orders, 1]
     value = partial(converged_distances, d_m=d_m, targets=targets, factor=factor)
     rng = np.random.default_rng([seed, 1])  # the model-based resamples' own stream, apart from the pairs'
@@ -295,7 +305,7 @@ def distance_intervals(
         return value(high[pick], coarse[pick], low[pick], weights[pick], low_u, counts)[..., :2, :, :]
 
     with np.errstate(invalid="ignore"):  # inf − inf where neither curve falls to P: NaN, read as open
-        point = point_distances(high, coarse, low, d_m, probabilities, ratio, orders, strata)
+        point = value(high, coarse, low[:n], weights, *held)  # point_distances, its pieces at hand
         evaluated = max(d_m.size, targets.size) * (big_n if resample_rest else n + BINS)  # the largest array
         batch = max(1, 2_000_000 // max(1, evaluated))
         paired = stratified_bootstrap(statistic, n, big_n, confidence, RESAMPLES, seed, batch, strata, resample_rest)
