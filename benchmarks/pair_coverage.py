@@ -64,7 +64,9 @@ intervals should imply, measured on many more replicates than a coverage run hol
 --sabotage: the same population with the cheap rows permuted across realizations (correlation ~0 with the
 MPM). Results are checkpointed after every replicate (a rerun with the same seed resumes) to
 benchmarks/results/pair_coverage_superpopulation.json (finite: pair_coverage.json, local:
-pair_coverage_local.json), and the md beside it.
+pair_coverage_local.json), and the md beside it. A second worker takes the replicates from a number on
+(``--first K``: a part file beside the population's, ``_fromK`` added); ``--merge`` appends the parts that
+continue the run and recomputes the summaries. Replicates are seeded by number, so a split run equals one run.
 """
 
 from __future__ import annotations
@@ -475,6 +477,30 @@ def merged(path: Path, name: str, result: dict) -> dict:
     return result | other | {"meta": meta}
 
 
+def merge_parts(path: Path, name: str) -> None:
+    """Append to ``path``'s mode ``name`` each part file (``--first``) that continues it, in order, and remove
+    the part; a part that does not start where the replicates end is left where it is, and said."""
+    result = json.loads(path.read_text())
+    mode = result[name]
+    for part_path in sorted(path.parent.glob(f"{path.stem}_from*.json"), key=lambda p: int(p.stem.rsplit("from")[-1])):
+        part = json.loads(part_path.read_text()).get(name, {})
+        first = int(part_path.stem.rsplit("from")[-1])
+        if part.get("seed") != mode["seed"] or first != len(mode["replicates"]):
+            print(
+                f"{part_path.name}: seed {part.get('seed')} from {first}; the run holds {len(mode['replicates'])} "
+                f"of seed {mode['seed']}: left as it is"
+            )
+            continue
+        mode["replicates"] += part["replicates"]
+        mode["seconds"] += part["seconds"]
+        mode["commits"] = sorted({*mode["commits"], *part["commits"]})
+        mode["seconds_per_replicate"] = float(np.median(mode["seconds"]))
+        checkpoint(result, path)
+        part_path.unlink()
+        part_path.with_suffix(".md").unlink(missing_ok=True)
+        print(f"{part_path.name}: {len(part['replicates'])} replicates appended ({len(mode['replicates'])} in all)")
+
+
 def verdict(interval: list[float | None], answer: float) -> str:
     """ "in", "below" (the interval lies below the answer), "above", "open in" (open above, its lower end at
     most the answer: a one-sided interval that holds it), or "open" (else an end left open)."""
@@ -828,6 +854,14 @@ def main() -> None:
         "finite: the members' own residuals, drawn once (the answers the finite population's)",
     )
     parser.add_argument(
+        "--first",
+        type=int,
+        default=None,
+        help="a second worker: replicates from this number on, to a part file beside the population's (the "
+        "replicates are seeded by number, so a part equals what one run would have drawn); --merge appends it",
+    )
+    parser.add_argument("--merge", action="store_true", help="append the part files that continue the run, in order")
+    parser.add_argument(
         "--strata",
         type=float,
         nargs="*",
@@ -840,7 +874,13 @@ def main() -> None:
     if args.strata is not None:
         suffix = "_strata" if args.strata else "_simple"
         result_path, report_path = (p.with_name(p.stem + suffix + p.suffix) for p in (result_path, report_path))
-    if args.report:  # the summaries recomputed from the replicates, then the md
+    if args.first is not None:
+        result_path, report_path = (
+            p.with_name(f"{p.stem}_from{args.first}{p.suffix}") for p in (result_path, report_path)
+        )
+    if args.merge:
+        merge_parts(result_path, "sabotage" if args.sabotage else "normal")
+    if args.report or args.merge:  # the summaries recomputed from the replicates, then the md
         result = json.loads(result_path.read_text())
         for name in MODES:
             if result.get(name, {}).get("replicates"):
@@ -900,7 +940,7 @@ def main() -> None:
         flush=True,
     )
     start = time.perf_counter()
-    for number in range(len(mode["replicates"]), args.replicates):
+    for number in range((args.first or 0) + len(mode["replicates"]), args.replicates):
         if args.minutes is not None and time.perf_counter() - start > 60.0 * args.minutes:
             print(f"{name}: stopped after {args.minutes} minutes", flush=True)
             break
