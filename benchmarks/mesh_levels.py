@@ -44,6 +44,7 @@ from rgns.fidelity import mesh_extrapolation  # noqa: E402
 from rgns.fidelity.outputs import correct  # noqa: E402
 from rgns.hazard.exceedance import sample_distance  # noqa: E402
 from rgns.montecarlo.runs import CaseInputs, RunSettings, run_realizations  # noqa: E402
+from rgns.provenance import commit  # noqa: E402
 from rgns.scene.realizations import accurate_case_inputs  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
@@ -280,7 +281,7 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
         f"length; 95 % percentile bootstrap intervals over the realizations. {times}",
         "",
     ]
-    record: dict = {}
+    record: dict = {"command": how.replace("`", ""), "commit": commit()}  # then one entry per case
     fig, axes = plt.subplots(1, 3, figsize=(14, 4))
     for case in cases:
         indices, values, seconds = saved(case, cells)
