@@ -123,7 +123,37 @@ def run_lines(record: dict[str, Any], case: str) -> list[str]:
         "The running mean and variance converge (the paper's rule) at n = "
         + " and ".join(f"{n:,} ({name})" for name, n in converged.items())
         + f". The allocation: {head['allocation']['reason']}.",
+        *time_lines(record, case),
     ]
+    return lines
+
+
+def time_lines(record: dict[str, Any], case: str) -> list[str]:
+    """Where a run's time went (per rule and route, from Snakemake's log; a run recorded before fresh_run.py took
+    it: nothing) and the machine's pace against the cost table's one-thread 0.5 m MPM of the same case
+    (mesh_levels.json)."""
+    head = record["cases"][case]
+    lines = []
+    table_cases = result("mesh_levels.json")
+    if "cost_s" in head and case in table_cases:  # a case the cost table ran (a site's own geometry costs its own)
+        table = table_cases[case]["seconds"]["0.5"]
+        slower = head["cost_s"]["high_s"] / table
+        lines.append(
+            f"Its 0.5 m MPM ran {slower:.1f}× slower than the cost table's one thread ({table:.1f} s per "
+            f"realization, `benchmarks/results/mesh_levels.json`); the run's time divided by that ratio, "
+            f"{minutes(record['seconds'] / slower)}, estimates it at the cost table's pace (an estimate, not a "
+            "measurement)."
+        )
+    rules = record.get("rules")
+    if rules:
+        total = sum(entry["job_seconds"] for entry in rules.values())
+        largest = list(rules.items())[:5]
+        lines.append(
+            f"Its jobs' summed wall time, {minutes(total)} on 2 cores, went to "
+            + ", ".join(f"{name} {minutes(entry['job_seconds'])} ({entry['jobs']} jobs)" for name, entry in largest)
+            + (", the rest less" if len(rules) > len(largest) else "")
+            + " (per rule and route, from Snakemake's log)."
+        )
     return lines
 
 
