@@ -479,26 +479,33 @@ def merged(path: Path, name: str, result: dict) -> dict:
 
 def merge_parts(path: Path, name: str) -> None:
     """Append to ``path``'s mode ``name`` each part file (``--first``) that continues it, in order, and remove
-    the part; a part that does not start where the replicates end is left where it is, and said."""
+    the part; a part may overlap the replicates (those it repeats are the same draws, and are skipped); one that
+    starts past their end is left where it is, and said."""
     result = json.loads(path.read_text())
     mode = result[name]
     for part_path in sorted(path.parent.glob(f"{path.stem}_from*.json"), key=lambda p: int(p.stem.rsplit("from")[-1])):
         part = json.loads(part_path.read_text()).get(name, {})
         first = int(part_path.stem.rsplit("from")[-1])
-        if part.get("seed") != mode["seed"] or first != len(mode["replicates"]):
+        if part.get("seed") != mode["seed"] or first > len(mode["replicates"]):
             print(
                 f"{part_path.name}: seed {part.get('seed')} from {first}; the run holds {len(mode['replicates'])} "
                 f"of seed {mode['seed']}: left as it is"
             )
             continue
-        mode["replicates"] += part["replicates"]
-        mode["seconds"] += part["seconds"]
+        skip = len(mode["replicates"]) - first
+        if part["replicates"][:skip] != mode["replicates"][first:]:
+            print(f"{part_path.name}: its replicates {first}-{first + skip - 1} differ from the run's: left as it is")
+            continue
+        mode["replicates"] += part["replicates"][skip:]
+        mode["seconds"] += part["seconds"][skip:]
         mode["commits"] = sorted({*mode["commits"], *part["commits"]})
         mode["seconds_per_replicate"] = float(np.median(mode["seconds"]))
         checkpoint(result, path)
         part_path.unlink()
         part_path.with_suffix(".md").unlink(missing_ok=True)
-        print(f"{part_path.name}: {len(part['replicates'])} replicates appended ({len(mode['replicates'])} in all)")
+        print(
+            f"{part_path.name}: {len(part['replicates'][skip:])} replicates appended ({len(mode['replicates'])} in all)"
+        )
 
 
 def verdict(interval: list[float | None], answer: float) -> str:
