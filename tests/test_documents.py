@@ -83,3 +83,14 @@ def test_each_current_benchmark_row_names_its_result_file_at_that_files_last_com
         != (last := full(["log", "-1", "--format=%H", "--", f"benchmarks/results/{name}"]))
     ]
     assert stale_rows == []
+
+
+def test_the_pages_tail_caution_quotes_the_coverage_run_it_cites():
+    """The page's caution beside a modelled tail distance (rgns.report.page.TAIL_COVERAGE) quotes the local
+    population's coverage at P 0.1 and 0.01 and its count of replicates as pair_coverage_local.json holds them."""
+    from rgns.report.page import TAIL_COVERAGE
+
+    record = documents.result("pair_coverage_local.json")["normal"]
+    quoted = [f"{100 * record['summary'][p]['converged']['at_order']['coverage']:.1f} %" for p in ("0.1", "0.01")]
+    assert f"{len(record['replicates'])} replicates" in TAIL_COVERAGE, TAIL_COVERAGE
+    assert all(figure in TAIL_COVERAGE for figure in quoted), (quoted, TAIL_COVERAGE)
