@@ -969,6 +969,8 @@ def main() -> None:
         result = merged(result_path, name, result)
         checkpoint(result, result_path)
         print(f"{name}: replicate {number + 1} of {args.replicates}, {mode['seconds'][-1]:.1f} s", flush=True)
+    result = merged(result_path, name, result)
+    checkpoint(result, result_path)  # a rerun that finds every replicate done records its command too
     write_report(result, report_path)
     print(report_path.read_text())
 
