@@ -939,7 +939,7 @@ def main() -> None:
     mode = result.get(name, {})
     if mode.get("seed") != args.seed:
         mode = {"seed": args.seed, "replicates": [], "seconds": []}
-    mode["commits"] = sorted({*mode.get("commits", []), commit()})  # the code each part ran
+    mode.setdefault("commits", [])
     mode["design"] = meta["design"]  # a sabotage part is set beside the normal part only under the same design
     result[name] = mode
     print(
@@ -952,6 +952,7 @@ def main() -> None:
             print(f"{name}: stopped after {args.minutes} minutes", flush=True)
             break
         tick = time.perf_counter()
+        mode["commits"] = sorted({*mode["commits"], commit()})  # the code each part ran
         rng_seed = [args.seed, number, int(args.sabotage)]
         if number == 0:  # the fast path against rule multifidelity's own, once per run
             mode["replicates"].append(check(population, settings, meta["cost"], rng_seed, number))
