@@ -483,9 +483,13 @@ def merge_parts(path: Path, name: str) -> None:
     starts past their end is left where it is, and said."""
     result = json.loads(path.read_text())
     mode = result[name]
-    for part_path in sorted(path.parent.glob(f"{path.stem}_from*.json"), key=lambda p: int(p.stem.rsplit("from")[-1])):
+
+    def first_of(part_path: Path) -> int:  # the part's first replicate: its name's "_from<K>"
+        return int(part_path.stem.rsplit("_from", 1)[1])
+
+    for part_path in sorted(path.parent.glob(f"{path.stem}_from*.json"), key=first_of):
         part = json.loads(part_path.read_text()).get(name, {})
-        first = int(part_path.stem.rsplit("from")[-1])
+        first = first_of(part_path)
         if part.get("seed") != mode["seed"] or first > len(mode["replicates"]):
             print(
                 f"{part_path.name}: seed {part.get('seed')} from {first}; the run holds {len(mode['replicates'])} "
@@ -940,6 +944,7 @@ def main() -> None:
     if mode.get("seed") != args.seed:
         mode = {"seed": args.seed, "replicates": [], "seconds": []}
     mode.setdefault("commits", [])
+    running = commit()  # the code this process loaded, which every replicate it runs uses
     mode["design"] = meta["design"]  # a sabotage part is set beside the normal part only under the same design
     result[name] = mode
     print(
@@ -952,7 +957,7 @@ def main() -> None:
             print(f"{name}: stopped after {args.minutes} minutes", flush=True)
             break
         tick = time.perf_counter()
-        mode["commits"] = sorted({*mode["commits"], commit()})  # the code each part ran
+        mode["commits"] = sorted({*mode["commits"], running})  # the code each part ran
         rng_seed = [args.seed, number, int(args.sabotage)]
         if number == 0:  # the fast path against rule multifidelity's own, once per run
             mode["replicates"].append(check(population, settings, meta["cost"], rng_seed, number))

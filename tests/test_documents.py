@@ -69,13 +69,10 @@ def test_each_current_benchmark_row_names_its_result_file_at_that_files_last_com
     current = [part for part in re.split(r"^## ", text, flags=re.M) if part.startswith("Current")]
     rows = [line for part in current for line in part.splitlines() if re.match(r"\| (?!what |---)", line)]
     made_at = [row.rstrip(" |").rsplit(" | ", 1)[1] for row in rows]
-    cited = [pair for cell in made_at for pair in re.findall(r"`([\w.]+\.json)` ([0-9a-f]{7,10})\b", cell)]
+    file_at = re.compile(r"`([\w.]+\.json)` ([0-9a-f]{7,10})\b")
+    cited = [pair for cell in made_at for pair in file_at.findall(cell)]
     # every hand-written row's cell parsed: a result file at a commit, or no result file kept
-    unparsed = [
-        cell
-        for cell in made_at
-        if not re.search(r"`([\w.]+\.json)` ([0-9a-f]{7,10})\b", cell) and "no result file kept" not in cell
-    ]
+    unparsed = [cell for cell in made_at if not file_at.search(cell) and "no result file kept" not in cell]
     assert made_at and cited and unparsed == [], unparsed
 
     def full(reference: list[str]) -> str:

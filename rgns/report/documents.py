@@ -601,12 +601,12 @@ def bench_chain_coverage() -> str:
     def pct(value: float) -> str:
         return f"{100 * value:.1f} %"
 
-    speedups = {}
+    gains = {}  # plain Monte Carlo's cost x variance over the default allocation's
     for name, entry in allocation.items():
         default = next(
             c for c in entry["candidates"] if c["pairs"] == record["pairs"] and c["cheap"] == record["cheap"]
         )
-        speedups[name] = entry["plain_work_variance"] / default["work_variance"]
+        gains[name] = entry["plain_work_variance"] / default["work_variance"]
     mean_name, p_name = list(allocation)
     figure = (
         f"converged mean runout covered in {pct(coverage['runout_m (sampling only)']['coverage'])} (sampling "
@@ -616,8 +616,8 @@ def bench_chain_coverage() -> str:
         f"0.1 covered in {pct(distances['0.5']['direct']['coverage_at_order'])} and "
         f"{pct(distances['0.1']['direct']['coverage_at_order'])} (sampling interval of the joint bootstrap; "
         f"{pct(distances['0.5']['direct']['coverage'])} and {pct(distances['0.1']['direct']['coverage'])} with the "
-        f"order's range); at equal sampling error {speedups[mean_name]:.0f}× cheaper than plain 0.25 m Monte Carlo "
-        f"for the converged mean runout, {speedups[p_name]:.0f}× for {p_name.split(',')[0]}; at {record['cheap']} "
+        f"order's range); at equal sampling error {gains[mean_name]:.0f}× cheaper than plain 0.25 m Monte Carlo "
+        f"for the converged mean runout, {gains[p_name]:.0f}× for {p_name.split(',')[0]}; at {record['cheap']} "
         f"cheap realizations the interval's cost × half-width² is lowest at "
         f"{lowest_work(allocation[mean_name]['candidates'], record['cheap'])} for the mean, at "
         f"{lowest_work(allocation[p_name]['candidates'], record['cheap'])} for {p_name.split(',')[0]} (then "
@@ -649,11 +649,11 @@ def tuned_speedups() -> str:
     lines = ["| cheap route | " + " | ".join(columns) + " |", "|---" * (len(columns) + 1) + "|"]
     for name, label in labels.items():
         cheap = record["analysis"]["cheap"][name]
-        cells = []
-        for column in columns:
-            i = quantities.index(column)
-            runs = " / ".join(f"{budget['speedup'][i]:.2f}" for budget in cheap["budgets"])
-            cells.append(f"{runs}× (ρ {cheap['correlation'][i]:.3f})")
+        runs = [budget["high_runs"] for budget in cheap["budgets"]]
+        cells = [
+            f"{speedups(cheap, quantities, [column], runs)} (ρ {cheap['correlation'][quantities.index(column)]:.3f})"
+            for column in columns
+        ]
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     budgets = " / ".join(str(b["high_runs"]) for b in record["analysis"]["cheap"][next(iter(labels))]["budgets"])
     lines += [
