@@ -347,7 +347,9 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
     fig.savefig(OUT / f"{RUNS.name}.png", dpi=130)
     plt.close(fig)
     if run_json is not None:
-        lines += against_run(cases[0], cells, run_json)
+        against, compared = against_run(cases[0], cells, run_json)
+        lines += against
+        record[cases[0]]["against"] = {"headline": headline_source(run_json), "comparisons": compared}
     lines += [
         "A negative error is an answer short of the converged one. The order is that of the means; where "
         "its interval reaches below 0.5 or the differences change sign the Richardson value is not to "
@@ -375,13 +377,23 @@ def reference(values: np.ndarray, order: list[float], reduce=np.mean, seed: int 
     return {"value": float(point[0]), "lower": float(np.min(low)), "upper": float(np.max(high))}
 
 
-def comparison_row(name: str, value: float, interval: tuple[float, float], ref: dict) -> str:
-    """A table row: the headline and the reference, each with its interval, and whether they agree."""
-    inside = interval[0] <= ref["value"] <= interval[1]
-    overlap = interval[0] <= ref["upper"] and ref["lower"] <= interval[1]
+def comparison(name: str, value: float, interval: tuple[float, float], ref: dict) -> dict:
+    """The headline and the reference of one quantity, each [value, lower, upper], and whether they agree."""
+    return {
+        "quantity": name,
+        "headline": [value, *interval],
+        "reference": [ref["value"], ref["lower"], ref["upper"]],
+        "inside": bool(interval[0] <= ref["value"] <= interval[1]),
+        "overlap": bool(interval[0] <= ref["upper"] and ref["lower"] <= interval[1]),
+    }
+
+
+def comparison_row(entry: dict) -> str:
+    """A table row of a :func:`comparison`."""
+    (value, low, high), (ref, ref_low, ref_high) = entry["headline"], entry["reference"]
     return (
-        f"| {name} | {value:.2f} [{interval[0]:.2f}, {interval[1]:.2f}] | {ref['value']:.2f} [{ref['lower']:.2f}, "
-        f"{ref['upper']:.2f}] | {'yes' if inside else 'NO'} | {'yes' if overlap else 'NO'} |"
+        f"| {entry['quantity']} | {value:.2f} [{low:.2f}, {high:.2f}] | {ref:.2f} [{ref_low:.2f}, {ref_high:.2f}] | "
+        f"{'yes' if entry['inside'] else 'NO'} | {'yes' if entry['overlap'] else 'NO'} |"
     )
 
 
@@ -446,9 +458,12 @@ def headline_source(run_json: Path) -> str:
     return f"`{run_json.resolve().relative_to(checkout)}` of a default run in {made}"
 
 
-def against_run(case: str, cells: list[float], run_json: Path, confidence: float = 0.95) -> list[str]:
+def against_run(
+    case: str, cells: list[float], run_json: Path, confidence: float = 0.95
+) -> tuple[list[str], list[dict]]:
     """The default run's headline (``run_json``: its multifidelity.json) against the direct reference on the
-    realizations run at 0.25 m, and the cost of plain Monte Carlo at 0.25 m for the headline's error."""
+    realizations run at 0.25 m, and the cost of plain Monte Carlo at 0.25 m for the headline's error: the
+    report's lines, and the comparisons (:func:`comparison`) for the result file."""
     run = json.loads(run_json.read_text())
     converged = run["converged"]
     order = converged["order"]["runout_m"]
@@ -478,6 +493,7 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
     matched = matched_chain(tables, run["cost"], len(indices)) if tables is not None and among >= 8 else None
     reducers = {None: np.mean} | {p: exceeded_with(float(p)) for p in distances}  # None: the mean
     references = {p: reference(values["runout_m"], order, reduce) for p, reduce in reducers.items()}
+    compared: list[dict] = []
     for record, suffix in ((converged, ""), (matched, f" — the run's chain on the reference's {len(indices)}")):
         if record is None:
             continue
@@ -486,10 +502,10 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
             if None in (headline["estimate"], headline["lower"], headline["upper"]):
                 continue  # a tail the run's realizations do not bound
             name = ("mean runout R" if p is None else f"R exceeded with P {p}") + suffix
-            lines.append(comparison_row(name, headline["estimate"], (headline["lower"], headline["upper"]), ref))
+            compared.append(comparison(name, headline["estimate"], (headline["lower"], headline["upper"]), ref))
     runout = converged["means"]["runout_m"]
-    lines.append(
-        comparison_row(
+    compared.append(
+        comparison(
             "mesh step of the mean runout (converged − 0.5 m; headline: over the order's interval)",
             runout["mesh_step"],
             tuple(runout["mesh_step_range"]),
@@ -498,14 +514,15 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
     )
     for p, entry in distances.items():
         if "mesh_step_interval" in entry:
-            lines.append(
-                comparison_row(
+            compared.append(
+                comparison(
                     f"mesh step of R exceeded with P {p} (headline: the step's bootstrap over the order's interval)",
                     entry["mesh_step"],
                     tuple(entry["mesh_step_interval"]),
                     reference(values["runout_m"], order, exceeded_with(float(p)), step=True),
                 )
             )
+    lines += [comparison_row(entry) for entry in compared]
     tails = [
         f"with P {p} {float(exceeded_with(float(p))(values['runout_m'][1], axis=-1)):.2f} m against the run's "
         f"{entry['accurate']:.2f} m"
@@ -541,7 +558,7 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
             f"These runs ran on {', '.join(sorted(ran_on))} in batches: their times are no one-core cost; the cost "
             "comparison is that of the CPU runs (`mesh_levels.md`).",
             "",
-        ]
+        ], compared
     z = stats.norm.ppf(0.5 + confidence / 2.0)
     n_plain = int(np.ceil((z * values["runout_m"][2].std(ddof=1) / half_width) ** 2))
     plain_s = n_plain * seconds[0.25]
@@ -560,7 +577,7 @@ def against_run(case: str, cells: list[float], run_json: Path, confidence: float
         "0.25 m mesh's own error, which the chain extrapolates away.",
         "",
     ]
-    return lines
+    return lines, compared
 
 
 def main() -> None:
