@@ -150,7 +150,10 @@ def time_lines(record: dict[str, Any], case: str) -> list[str]:
         largest = list(rules.items())[:5]
         lines.append(
             f"Its jobs' summed wall time, {minutes(total)} on 2 cores, went to "
-            + ", ".join(f"{name} {minutes(entry['job_seconds'])} ({entry['jobs']} jobs)" for name, entry in largest)
+            + ", ".join(
+                f"{name} {minutes(entry['job_seconds'])} ({entry['jobs']} job{'s' if entry['jobs'] > 1 else ''})"
+                for name, entry in largest
+            )
             + (", the rest less" if len(rules) > len(largest) else "")
             + " (per rule and route, from Snakemake's log)."
         )
@@ -415,7 +418,29 @@ def ood_table() -> str:
             + " |",
             "",
             f"Seed {record['data_seed']}; `{record['command']}` ({made}).",
+            "",
+            ood_bias_and_cost(record, rows),
         ]
+    )
+
+
+def ood_bias_and_cost(record: dict[str, Any], rows: dict[tuple[str, str], dict[str, Any]]) -> str:
+    """The runout's bias on each unseen set (relative, or in metres where the MPM's mean runout is under a metre:
+    a set that mostly stands), and the model's cost per realization against the 1 m MPM's."""
+
+    def bias(name: str) -> str:
+        row = rows[name, "runout"]
+        if row["mpm_mean"] < 1.0:
+            return f"{row['bias']:+.2f} m of a {row['mpm_mean']:.2f} m mean"
+        return f"{100 * row['relative_bias']:+.1f} %"
+
+    cost = record["cost"]
+    return (
+        "Runout's bias on the sets above, model − MPM: "
+        + "; ".join(f"{label} {bias(name)}" for name, label in OOD_SETS.items() if (name, "runout") in rows)
+        + f". Per realization the model costs {1000 * cost['model_s']:.1f} ms against the 1 m MPM's "
+        f"{cost['mpm_s']:.2f} s ({cost['ratio']:.0f}×, one thread each, {cost['realizations']} realizations of "
+        f"{cost['case'].replace('case', 'case ')})."
     )
 
 
@@ -593,20 +618,27 @@ def lowest_work(candidates: list[dict[str, Any]], cheap: int) -> str:
     return f"{best['pairs']} pairs (within 10 % of it from {near[0]} to {near[-1]})"
 
 
-def bench_chain_coverage() -> str:
-    """docs/benchmarks.md: the fidelity chain's coverage and allocation on the real runs (chain_coverage.json)."""
-    record = result("chain_coverage.json", legacy=True)
-    coverage, distances, allocation = record["coverage"], record["distances"], record["allocation"]
+def pct(value: float) -> str:
+    """A fraction as a percentage to one decimal."""
+    return f"{100 * value:.1f} %"
 
-    def pct(value: float) -> str:
-        return f"{100 * value:.1f} %"
 
-    gains = {}  # plain Monte Carlo's cost x variance over the default allocation's
-    for name, entry in allocation.items():
+def chain_gains(record: dict[str, Any]) -> dict[str, float]:
+    """chain_coverage.json: per quantity, plain Monte Carlo's cost × variance over its default allocation's."""
+    gains = {}
+    for name, entry in record["allocation"].items():
         default = next(
             c for c in entry["candidates"] if c["pairs"] == record["pairs"] and c["cheap"] == record["cheap"]
         )
         gains[name] = entry["plain_work_variance"] / default["work_variance"]
+    return gains
+
+
+def bench_chain_coverage() -> str:
+    """docs/benchmarks.md: the fidelity chain's coverage and allocation on the real runs (chain_coverage.json)."""
+    record = result("chain_coverage.json", legacy=True)
+    coverage, distances, allocation = record["coverage"], record["distances"], record["allocation"]
+    gains = chain_gains(record)
     mean_name, p_name = list(allocation)
     figure = (
         f"converged mean runout covered in {pct(coverage['runout_m (sampling only)']['coverage'])} (sampling "
@@ -632,6 +664,53 @@ def bench_chain_coverage() -> str:
             f"and correlations | {figure} | `{record['command']}` | `chain_coverage.json` committed in "
             f"{record['committed_in']} |",
         ]
+    )
+
+
+def mesh_step() -> str:
+    """README: the step to the converged mesh, its order measured on case 1, against the direct reference of the
+    GPU's 0.25 m runs, and the chain's coverage on the real runs (mesh_levels.json, mesh_levels_gpu.json,
+    chain_coverage.json)."""
+    cpu, gpu = result("mesh_levels.json"), result("mesh_levels_gpu.json")
+    chain = result("chain_coverage.json", legacy=True)
+    for name, record in (("mesh_levels.json", cpu), ("mesh_levels_gpu.json", gpu)):
+        if "against" not in record["case1"]:
+            raise DocumentError(f"benchmarks/results/{name}: no comparison with a default run (run it with --against)")
+    order = cpu["case1"]["fits"]["runout_m"]["order"]
+    compared = {entry["quantity"]: entry for entry in cpu["case1"]["against"]["comparisons"]}
+    step = compared["mesh step of the mean runout (converged − 0.5 m; headline: over the order's interval)"]
+    direct = [entry for entry in gpu["case1"]["against"]["comparisons"] if not entry["quantity"].startswith("mesh")]
+
+    def metres(entry: list[float]) -> str:
+        return f"{entry[0]:.2f} m [{entry[1]:.2f}, {entry[2]:.2f}]"
+
+    coverage, distances = chain["coverage"], chain["distances"]
+    mean_name = list(chain["allocation"])[0]
+    return (
+        f"The step to the converged mesh uses the order measured on case 1's realizations at 1, 0.5 and 0.25 m: "
+        f"{order['value']:.2f} [{order['lower']:.2f}, {order['upper']:.2f}] for runout on "
+        f"{len(cpu['case1']['realizations'])} realizations, by which the 0.5 m mesh's mean runout is short by "
+        f"{metres(step['reference'])}; the default run's step, {metres(step['headline'])} "
+        f"({cpu['case1']['against']['headline']}), {'holds' if step['inside'] else 'DOES NOT hold'} it "
+        f"(`benchmarks/results/mesh_levels.md`: `{cpu['command']}` at {cpu['commit']}). Its interval holds that "
+        f"order's uncertainty, which is most of its width. Against a direct reference, the run's first "
+        f"{len(gpu['case1']['realizations'])} realizations at 0.25 m plus their own Richardson step, run on a GPU "
+        f"(`benchmarks/results/mesh_levels_gpu.md`, at {gpu['commit']}), the headline "
+        + "; ".join(
+            f"{entry['quantity']} {metres(entry['headline'])} {'holds' if entry['inside'] else 'DOES NOT hold'} "
+            f"its {entry['reference'][0]:.2f} m"
+            for entry in direct
+        )
+        + f". Over {chain['replicates']} replicates resampled from the {chain['population']} realizations at three "
+        f"meshes the mean runout's sampling interval covered the known converged answer in "
+        f"{pct(coverage['runout_m (sampling only)']['coverage'])} and the mean V and I in "
+        f"{pct(coverage['volume_m2']['coverage'])} and {pct(coverage['influence_m']['coverage'])}; R exceeded with "
+        f"P 0.5 and 0.1, through the pipeline's estimators over {distances['0.5']['replicates']}, in "
+        f"{pct(distances['0.5']['direct']['coverage_at_order'])} and "
+        f"{pct(distances['0.1']['direct']['coverage_at_order'])} (sampling part); at equal sampling error the chain "
+        f"is {chain_gains(chain)[mean_name]:.0f}× cheaper than plain 0.25 m Monte Carlo for the converged mean "
+        f"runout (`{chain['command']}`, committed in {chain['committed_in']}, {chain['pairs']} pairs and "
+        f"{chain['cheap']} cheap runs: the estimators as they were then)."
     )
 
 
@@ -677,6 +756,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "bench-multifidelity": bench_multifidelity,
     "bench-chain-coverage": bench_chain_coverage,
     "tuned-speedups": tuned_speedups,
+    "mesh-step": mesh_step,
     "convergence-table": convergence_table,
 }
 
