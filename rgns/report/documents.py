@@ -714,6 +714,51 @@ def mesh_step() -> str:
     )
 
 
+# docs/fidelity.md's names of multifidelity.json's cheap routes, in its order
+ROUTE_LABELS = {
+    "MPM 1 m": "MPM 1 m",
+    "MPM 1 m, cfl 0.8": "MPM 1 m, CFL 0.8 (rejected)",
+    "MPM 2 m": "MPM 2 m",
+    "GNS (shipped)": "GNS (shipped)",
+    "end-state surrogate (shipped)": "end-state surrogate (shipped at 6d09908, 8,000 steps)",
+}
+
+
+def multifidelity_routes() -> str:
+    """docs/fidelity.md: every cheap route against plain 0.5 m Monte Carlo at equal wall time, speed-ups at 8 / 16 /
+    32 accurate runs' time with each quantity's correlation, the exceedance probabilities by the indicator and the
+    regression control variate (multifidelity.json)."""
+    record = result("multifidelity.json", legacy=True)
+    quantities, cheap = record["analysis"]["quantities"], record["analysis"]["cheap"]
+
+    def cell(route: dict[str, Any], column: str) -> str:
+        runs = [budget["high_runs"] for budget in route["budgets"]]
+        return f"{speedups(route, quantities, [column], runs)} (ρ {route['correlation'][quantities.index(column)]:.3f})"
+
+    lines = [
+        "| cheap route | s per realization | mean R | mean V | mean I | P(R > r50): indicator → regression | "
+        "P(R > r10): indicator → regression |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name, label in ROUTE_LABELS.items():
+        route = cheap[name]
+        probabilities = [f"{cell(route, p)} → {cell(route, f'{p}, regression')}" for p in ("P(R > r50)", "P(R > r10)")]
+        lines.append(
+            f"| {label} | {route['s_per_realization']:.3g} | "
+            + " | ".join([cell(route, q) for q in ("mean R", "mean V", "mean I")] + probabilities)
+            + " |"
+        )
+    budgets = " / ".join(str(b["high_runs"]) for b in cheap["MPM 1 m"]["budgets"])
+    lines += [
+        "",
+        f"The accurate route, the MPM at 0.5 m: {record['routes']['MPM 0.5 m']['s_per_realization']:.2f} s per "
+        f"realization. Speed-ups at {budgets} accurate runs' time, on the {record['n']}-realization pool; "
+        f"`{record['command']}`, `benchmarks/results/multifidelity.json` committed in {record['committed_in']} "
+        f"({record['machine']}).",
+    ]
+    return "\n".join(lines)
+
+
 def tuned_speedups() -> str:
     """docs/fidelity.md: the end-state surrogate, shipped and tuned on 0.5 m runs, as the cheap route against the
     0.5 m MPM: speed-ups at 8 / 16 / 32 accurate runs' time and correlations (hifi_surrogate.json)."""
@@ -756,6 +801,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "bench-multifidelity": bench_multifidelity,
     "bench-chain-coverage": bench_chain_coverage,
     "tuned-speedups": tuned_speedups,
+    "multifidelity-routes": multifidelity_routes,
     "mesh-step": mesh_step,
     "convergence-table": convergence_table,
 }
