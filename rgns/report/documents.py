@@ -424,6 +424,42 @@ def ood_table() -> str:
     )
 
 
+# docs/surrogates.md's notes on the out-of-distribution sets' names
+OOD_NOTES = {"hillside": " (DEM section)", "ood_field": " (field outside training)"}
+
+
+def signed_percent(fraction: float) -> str:
+    """'+0.9 %' / '−3.1 %' (a true minus sign, as the docs write it)."""
+    return f"{100 * fraction:+.1f} %".replace("-", "−")
+
+
+def ood_bias_table() -> str:
+    """docs/surrogates.md: the geometry-general surrogate's R² and relative bias of R, V and I per set it never
+    trained on and per test case (ood_surrogate.json)."""
+    record = result("ood_surrogate.json", legacy=True)
+    rows = {(row["set"], row["metric"]): row for row in record["model"]}
+    sets = list(dict.fromkeys(row["set"] for row in record["model"]))
+    lines = ["| set | runout R | volume V | influence I |", "|---|---|---|---|"]
+    for name in sets:
+        runout = rows[name, "runout"]
+        standing = runout["stood_both"] + runout["failed_model_only"]  # the MPM left these standing
+        mostly_stand = standing > runout["n"] / 2
+        cells = []
+        for metric in ("runout", "volume", "influence"):
+            row = rows[name, metric]
+            cell = (
+                f"{row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}], {signed_percent(row['relative_bias'])}"
+            )
+            if metric == "runout" and mostly_stand:
+                cell += f" ({row['bias']:+.2f} m)".replace("-", "−")
+            cells.append(cell)
+        label = name + OOD_NOTES.get(name, "") + (f" ({standing} of {runout['n']} stand)" if mostly_stand else "")
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    made = record.get("commit") or f"committed in {record['committed_in']}, which the file does not record"
+    lines += ["", f"Seed {record['data_seed']}; `{record['command']}` ({made})."]
+    return "\n".join(lines)
+
+
 def ood_bias_and_cost(record: dict[str, Any], rows: dict[tuple[str, str], dict[str, Any]]) -> str:
     """The runout's bias on each unseen set (relative, or in metres where the MPM's mean runout is under a metre:
     a set that mostly stands), and the model's cost per realization against the 1 m MPM's."""
@@ -790,6 +826,7 @@ def tuned_speedups() -> str:
 
 RENDERERS: dict[str, Callable[[], str]] = {
     "ood-table": ood_table,
+    "ood-bias-table": ood_bias_table,
     "endstate-untouched": endstate_untouched,
     "default-run": default_run,
     "site-run": site_run,
