@@ -467,8 +467,8 @@ def ood_bias_and_cost(record: dict[str, Any], rows: dict[tuple[str, str], dict[s
     def bias(name: str) -> str:
         row = rows[name, "runout"]
         if row["mpm_mean"] < 1.0:
-            return f"{row['bias']:+.2f} m of a {row['mpm_mean']:.2f} m mean"
-        return f"{100 * row['relative_bias']:+.1f} %"
+            return f"{row['bias']:+.2f} m of a {row['mpm_mean']:.2f} m mean".replace("-", "−")
+        return signed_percent(row["relative_bias"])
 
     cost = record["cost"]
     return (
