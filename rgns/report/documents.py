@@ -600,6 +600,34 @@ def convergence_table() -> str:
     return "\n".join(lines)
 
 
+def convergence_orders() -> str:
+    """docs/engine.md: per shape, the mean R, I and V of the realizations run at every cell size, their observed
+    order and Richardson value where the differences keep their sign and shrink (convergence.json)."""
+    orders = result("convergence.json")["orders"]
+    units = {"runout_m": "m", "influence_m": "m", "volume_m2": "m²"}
+    names = {"runout_m": "R", "influence_m": "I", "volume_m2": "V"}
+
+    def series(entry: dict[str, Any], key: str) -> str:
+        digits = 1 if key == "volume_m2" else 2
+        values = " → ".join(f"{v:.{digits}f}" for v in entry["series"])
+        if entry["asymptotic"]:
+            how = f"observed order p = {entry['order']:.2f}, Richardson value f* = {entry['converged']:.{digits}f} {units[key]}"
+        else:
+            how = "no asymptotic range"
+        return f"{names[key]} {values} {units[key]} ({how})"
+
+    sentences = []
+    for shape, label in (("bspline", "B-spline"), ("linear", "Bilinear")):
+        entries = orders[shape]
+        cells = " / ".join(f"{h:g}" for h in entries["runout_m"]["cells"])
+        sentences.append(
+            f"{label}, on the {len(entries['runout_m']['realizations'])} realizations run at every h = {cells} m: "
+            + "; ".join(series(entries[key], key) for key in ("runout_m", "influence_m", "volume_m2"))
+            + "."
+        )
+    return " ".join(sentences) + " (`benchmarks/results/convergence.json`.)"
+
+
 def speedups(cheap: dict[str, Any], quantities: list[str], wanted: list[str], runs: list[int]) -> str:
     """'a / b×' of the measured speed-ups of ``wanted`` quantities at ``runs`` accurate runs' time."""
     at = {budget["high_runs"]: budget["speedup"] for budget in cheap["budgets"]}
@@ -841,6 +869,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "multifidelity-routes": multifidelity_routes,
     "mesh-step": mesh_step,
     "convergence-table": convergence_table,
+    "convergence-orders": convergence_orders,
 }
 
 
