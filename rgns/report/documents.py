@@ -383,29 +383,44 @@ OOD_SETS = {
 }
 
 
+def standing(runout: dict[str, Any]) -> int:
+    """How many of an ood_surrogate.json set's realizations the MPM left standing (its runout row)."""
+    return runout["stood_both"] + runout["failed_model_only"]
+
+
+def stood(runout: dict[str, Any]) -> str:
+    """' (54 of 64 stand)' for a set the MPM mostly left standing, else ''."""
+    return f" ({standing(runout)} of {runout['n']} stand)" if standing(runout) > runout["n"] / 2 else ""
+
+
+def r2_interval(row: dict[str, Any]) -> str:
+    """An ood_surrogate.json row's R² with its bootstrap interval."""
+    return bracketed([row["r2"], row["r2_low"], row["r2_high"]])
+
+
+def made_note(record: dict[str, Any]) -> str:
+    """The commit a result file records, or the one that committed it where it records none."""
+    return record.get("commit") or f"committed in {record['committed_in']}, which the file does not record"
+
+
+def true_minus(text: str) -> str:
+    """``text`` with its hyphen-minus signs written as a true minus sign, as the docs write them."""
+    return text.replace("-", "−")
+
+
 def ood_table() -> str:
     """README: the geometry-general surrogate's R² on sets it never trained on, and on the test cases."""
     record = result("ood_surrogate.json", legacy=True)
     rows = {(row["set"], row["metric"]): row for row in record["model"]}
     metrics = ("runout", "volume", "influence")
-
-    def stood(name: str) -> str:
-        row = rows[name, "runout"]
-        standing = row["stood_both"] + row["failed_model_only"]  # the MPM left these standing
-        return f" ({standing} of {row['n']} stand)" if standing > row["n"] / 2 else ""
-
     cases = [name for name in ("case1", "case2", "case3", "case4") if (name, "runout") in rows]
-    made = record.get("commit") or f"committed in {record['committed_in']}, which the file does not record"
     return "\n".join(
         [
             "| set (its realizations never trained on) | runout R | volume V | influence I |",
             "|---|---|---|---|",
             *(
-                f"| {label}{stood(name)} | "
-                + " | ".join(
-                    f"{rows[name, m]['r2']:.3f} [{rows[name, m]['r2_low']:.3f}, {rows[name, m]['r2_high']:.3f}]"
-                    for m in metrics
-                )
+                f"| {label}{stood(rows[name, 'runout'])} | "
+                + " | ".join(r2_interval(rows[name, m]) for m in metrics)
                 + " |"
                 for name, label in OOD_SETS.items()
                 if (name, "runout") in rows
@@ -417,7 +432,7 @@ def ood_table() -> str:
             + " | ".join(" / ".join(f"{rows[c, m]['r2']:.3f}" for c in cases) for m in metrics)
             + " |",
             "",
-            f"Seed {record['data_seed']}; `{record['command']}` ({made}).",
+            f"Seed {record['data_seed']}; `{record['command']}` ({made_note(record)}).",
             "",
             ood_bias_and_cost(record, rows),
         ]
@@ -429,8 +444,8 @@ OOD_NOTES = {"hillside": " (DEM section)", "ood_field": " (field outside trainin
 
 
 def signed_percent(fraction: float) -> str:
-    """'+0.9 %' / '−3.1 %' (a true minus sign, as the docs write it)."""
-    return f"{100 * fraction:+.1f} %".replace("-", "−")
+    """'+0.9 %' / '−3.1 %'."""
+    return true_minus(f"{100 * fraction:+.1f} %")
 
 
 def ood_bias_table() -> str:
@@ -442,32 +457,26 @@ def ood_bias_table() -> str:
     lines = ["| set | runout R | volume V | influence I |", "|---|---|---|---|"]
     for name in sets:
         runout = rows[name, "runout"]
-        standing = runout["stood_both"] + runout["failed_model_only"]  # the MPM left these standing
-        mostly_stand = standing > runout["n"] / 2
         cells = []
         for metric in ("runout", "volume", "influence"):
             row = rows[name, metric]
-            cell = (
-                f"{row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}], {signed_percent(row['relative_bias'])}"
-            )
-            if metric == "runout" and mostly_stand:
-                cell += f" ({row['bias']:+.2f} m)".replace("-", "−")
+            cell = f"{r2_interval(row)}, {signed_percent(row['relative_bias'])}"
+            if metric == "runout" and stood(runout):
+                cell += true_minus(f" ({row['bias']:+.2f} m)")
             cells.append(cell)
-        label = name + OOD_NOTES.get(name, "") + (f" ({standing} of {runout['n']} stand)" if mostly_stand else "")
-        lines.append(f"| {label} | " + " | ".join(cells) + " |")
-    made = record.get("commit") or f"committed in {record['committed_in']}, which the file does not record"
-    lines += ["", f"Seed {record['data_seed']}; `{record['command']}` ({made})."]
+        lines.append(f"| {name}{OOD_NOTES.get(name, '')}{stood(runout)} | " + " | ".join(cells) + " |")
+    lines += ["", f"Seed {record['data_seed']}; `{record['command']}` ({made_note(record)})."]
     return "\n".join(lines)
 
 
 def ood_bias_and_cost(record: dict[str, Any], rows: dict[tuple[str, str], dict[str, Any]]) -> str:
-    """The runout's bias on each unseen set (relative, or in metres where the MPM's mean runout is under a metre:
-    a set that mostly stands), and the model's cost per realization against the 1 m MPM's."""
+    """The runout's bias on each unseen set (relative, or in metres on a set the MPM mostly left standing), and the
+    model's cost per realization against the 1 m MPM's."""
 
     def bias(name: str) -> str:
         row = rows[name, "runout"]
-        if row["mpm_mean"] < 1.0:
-            return f"{row['bias']:+.2f} m of a {row['mpm_mean']:.2f} m mean".replace("-", "−")
+        if stood(row):
+            return true_minus(f"{row['bias']:+.2f} m of a {row['mpm_mean']:.2f} m mean")
         return signed_percent(row["relative_bias"])
 
     cost = record["cost"]
@@ -634,6 +643,13 @@ def speedups(cheap: dict[str, Any], quantities: list[str], wanted: list[str], ru
     return " / ".join(f"{at[n][quantities.index(q)]:.2f}" for q in wanted for n in runs) + "×"
 
 
+def speedup_cell(cheap: dict[str, Any], quantities: list[str], column: str) -> str:
+    """'a / b / c× (ρ r)': one quantity's speed-ups at every budget a cheap route was measured at, and its
+    correlation with the accurate route."""
+    runs = [budget["high_runs"] for budget in cheap["budgets"]]
+    return f"{speedups(cheap, quantities, [column], runs)} (ρ {cheap['correlation'][quantities.index(column)]:.3f})"
+
+
 def bench_multifidelity() -> str:
     """docs/benchmarks.md: multi-fidelity against plain 0.5 m Monte Carlo at equal wall time, per cheap route
     (multifidelity.json), and with the surrogate tuned on 0.5 m runs (hifi_surrogate.json)."""
@@ -745,23 +761,20 @@ def mesh_step() -> str:
     step = compared["mesh step of the mean runout (converged − 0.5 m; headline: over the order's interval)"]
     direct = [entry for entry in gpu["case1"]["against"]["comparisons"] if not entry["quantity"].startswith("mesh")]
 
-    def metres(entry: list[float]) -> str:
-        return f"{entry[0]:.2f} m [{entry[1]:.2f}, {entry[2]:.2f}]"
-
     coverage, distances = chain["coverage"], chain["distances"]
     mean_name = list(chain["allocation"])[0]
     return (
         f"The step to the converged mesh uses the order measured on case 1's realizations at 1, 0.5 and 0.25 m: "
         f"{order['value']:.2f} [{order['lower']:.2f}, {order['upper']:.2f}] for runout on "
         f"{len(cpu['case1']['realizations'])} realizations, by which the 0.5 m mesh's mean runout is short by "
-        f"{metres(step['reference'])}; the default run's step, {metres(step['headline'])} "
+        f"{ends(step['reference'])}; the default run's step, {ends(step['headline'])} "
         f"({cpu['case1']['against']['headline']}), {'holds' if step['inside'] else 'DOES NOT hold'} it "
         f"(`benchmarks/results/mesh_levels.md`: `{cpu['command']}` at {cpu['commit']}). Its interval holds that "
         f"order's uncertainty, which is most of its width. Against a direct reference, the run's first "
         f"{len(gpu['case1']['realizations'])} realizations at 0.25 m plus their own Richardson step, run on a GPU "
         f"(`benchmarks/results/mesh_levels_gpu.md`, at {gpu['commit']}), the headline "
         + "; ".join(
-            f"{entry['quantity']} {metres(entry['headline'])} {'holds' if entry['inside'] else 'DOES NOT hold'} "
+            f"{entry['quantity']} {ends(entry['headline'])} {'holds' if entry['inside'] else 'DOES NOT hold'} "
             f"its {entry['reference'][0]:.2f} m"
             for entry in direct
         )
@@ -796,8 +809,7 @@ def multifidelity_routes() -> str:
     quantities, cheap = record["analysis"]["quantities"], record["analysis"]["cheap"]
 
     def cell(route: dict[str, Any], column: str) -> str:
-        runs = [budget["high_runs"] for budget in route["budgets"]]
-        return f"{speedups(route, quantities, [column], runs)} (ρ {route['correlation'][quantities.index(column)]:.3f})"
+        return speedup_cell(route, quantities, column)
 
     lines = [
         "| cheap route | s per realization | mean R | mean V | mean I | P(R > r50): indicator → regression | "
@@ -837,11 +849,7 @@ def tuned_speedups() -> str:
     lines = ["| cheap route | " + " | ".join(columns) + " |", "|---" * (len(columns) + 1) + "|"]
     for name, label in labels.items():
         cheap = record["analysis"]["cheap"][name]
-        runs = [budget["high_runs"] for budget in cheap["budgets"]]
-        cells = [
-            f"{speedups(cheap, quantities, [column], runs)} (ρ {cheap['correlation'][quantities.index(column)]:.3f})"
-            for column in columns
-        ]
+        cells = [speedup_cell(cheap, quantities, column) for column in columns]
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     budgets = " / ".join(str(b["high_runs"]) for b in record["analysis"]["cheap"][next(iter(labels))]["budgets"])
     lines += [
