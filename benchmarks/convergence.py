@@ -403,6 +403,37 @@ def diagnose_section(parts: dict) -> list[str]:
     ]
 
 
+def column_record(parts: dict) -> dict:
+    """Per shape: the column's runout over width at every h, each level's status, and the observed order and
+    Richardson value over the levels that finished (docs/engine.md renders it)."""
+    out = {}
+    for s in ("linear", "bspline"):
+        if f"column-{s}" not in parts:
+            continue
+        levels = parts[f"column-{s}"]["levels"]
+        ok = [h for h in COLUMN_CELLS if levels[str(h)]["status"] == "ok"]
+        out[s] = {
+            "cells": list(COLUMN_CELLS),
+            "runout_ratio": [levels[str(h)]["runout_ratio"] if h in ok else None for h in COLUMN_CELLS],
+            "status": [levels[str(h)]["status"] for h in COLUMN_CELLS],
+            "fit": observed([levels[str(h)]["runout_ratio"] for h in ok]),
+        }
+    return out
+
+
+def diagnose_record(parts: dict) -> dict:
+    """Per route of the locking diagnosis: the two slopes' (φ 30°, 34°) runouts, slide depths and seconds per run."""
+    return {
+        name: {
+            "runout_m": [row.get("runout_m") for row in record["rows"]],
+            "slide_depth_m": record["slide_depth_m"],
+            "s_per_realization": record["s_per_realization"],
+        }
+        for shape in ("linear", "bspline")
+        for name, record in parts.get(f"diagnose-{shape}", {}).get("routes", {}).items()
+    }
+
+
 def committed_in(path: Path) -> str:
     """The commit that last committed ``path``: when a saved part was measured (parts record no commit)."""
     done = subprocess.run(
@@ -443,6 +474,8 @@ def report() -> None:
         "parts_committed_in": {name: committed_in(PARTS / f"{name}.json") for name in parts},
         "slopes": table,
         "orders": fits,
+        "column": column_record(parts),
+        "diagnose": diagnose_record(parts),
     }
     (OUT / "convergence.json").write_text(json.dumps(record, indent=1))
     print("\n".join(lines))
