@@ -182,11 +182,12 @@ def devices(case: str, cells: list[float], indices: np.ndarray) -> set[str]:
     return {json.loads(run_file(case, h, i).read_text()).get("device", "cpu") for h in cells for i in indices}
 
 
-def cpu_agreement(case: str, cells: list[float]) -> list[str]:
-    """Where RUNS are not the one-thread CPU runs: their runout against those on the realizations both ran."""
+def cpu_agreement(case: str, cells: list[float]) -> tuple[list[str], list[dict]]:
+    """Where RUNS are not the one-thread CPU runs: their runout against those on the realizations both ran (the
+    report's lines, and per cell size the count, the mean difference and the largest)."""
     if not other_runs():
-        return []
-    rows = []
+        return [], []
+    rows, records = [], []
     for h in cells:
         both = sorted(
             {int(p.stem) for p in (RUNS / case / f"h{h:g}").glob("*.json")}
@@ -201,17 +202,25 @@ def cpu_agreement(case: str, cells: list[float]) -> list[str]:
             ]
         )
         difference = pairs[:, 0] - pairs[:, 1]
+        records.append(
+            {
+                "cell_size_m": h,
+                "n": len(both),
+                "mean_difference_m": float(difference.mean()),
+                "largest_m": float(np.abs(difference).max()),
+            }
+        )
         rows.append(
             f"h {h:g} m: {len(both)} realizations, mean difference {difference.mean():+.4f} m, largest "
             f"{np.abs(difference).max():.4f} m"
         )
     if not rows:
-        return []
+        return [], []
     return [
         "",
         f"These runs' runout against the one-thread CPU runs (`{CPU_RUNS.relative_to(REPO)}`, one realization at a "
         "time) on the realizations both ran: " + "; ".join(rows) + ".",
-    ]
+    ], records
 
 
 def finest_check(case: str, cells: list[float], finest: float = 0.125) -> list[str]:
@@ -316,7 +325,8 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
                 f"{cell(f['error_0.5'])} | {cell(f['error_0.25'])} |"
             )
         lines += finest_check(case, cells)
-        lines += cpu_agreement(case, cells)
+        agreement, record[case]["cpu_agreement"] = cpu_agreement(case, cells)
+        lines += agreement
         suggested = {key: mesh_order(fits[key]["order"]) for key in METRICS}
         record[case]["mesh_order"] = suggested
         lines += [
