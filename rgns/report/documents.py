@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import sys
 from collections.abc import Callable
@@ -637,6 +638,98 @@ def convergence_orders() -> str:
     return " ".join(sentences) + " (`benchmarks/results/convergence.json`.)"
 
 
+def convergence_column() -> str:
+    """docs/engine.md: the column collapse's runout over width per shape and cell size, and the B-spline's order."""
+    column = result("convergence.json")["column"]
+    sentences = []
+    for shape, label in (("bspline", "B-spline"), ("linear", "bilinear")):
+        entry = column[shape]
+        ran = [f"{v:.2f}" for v in entry["runout_ratio"] if v is not None]
+        text = f"{label} {' → '.join(ran)}"
+        fit = entry["fit"]
+        if fit["asymptotic"]:
+            text += f" (p = {fit['order']:.2f}, f* = {fit['converged']:.2f})"
+        failed = [(h, status) for h, status in zip(entry["cells"], entry["status"]) if status != "ok"]
+        text += "".join(f", then at {h:g} m {status}" for h, status in failed)
+        sentences.append(text)
+    cells = " / ".join(f"{h:g}" for h in column["bspline"]["cells"])
+    return f"On the column, runout over width at h = {cells} m: {'; '.join(sentences)}."
+
+
+def convergence_default_error() -> str:
+    """docs/engine.md: the default 1 m B-spline mesh's error against the 0.5 m answers and against the converged
+    values (Richardson where the series is asymptotic, else the finest), and what 0.5 m costs."""
+    record = result("convergence.json")
+    spread = record["slopes"]["range"]
+    levels = record["slopes"]["shapes"]["bspline"]
+    names = {"runout_m": ("R", "m", 2), "volume_m2": ("V", "m²", 1), "influence_m": ("I", "m", 2)}
+    against = levels["1"]["against_bspline"]["0.5"]
+    to_half = ", ".join(
+        f"{name} {against[key]['mean_abs']:.{digits}f} {unit} ({100 * against[key]['share_of_range']:.0f} %)"
+        for key, (name, unit, digits) in names.items()
+    )
+    orders = record["orders"]["bspline"]
+    one = orders["runout_m"]["cells"].index(1.0)
+    finest = f"{orders['runout_m']['cells'][-1]:g} m"
+    to_converged = ", ".join(
+        f"{name} {true_minus(format(orders[key]['errors'][one], '+.1f'))} {unit} "
+        f"({100 * abs(orders[key]['errors'][one]) / spread[key]:.0f} %)"
+        for key, (name, unit, _) in names.items()
+    )
+    reference = "; ".join(
+        f"{names[key][0]} its {'Richardson value' if orders[key]['asymptotic'] else finest + ' value'}" for key in names
+    )
+    n_all = against["runout_m"]["n"]
+    verdict = (
+        f"every realization fails at 1 m and at 0.5 m ({levels['1']['failed']} of {n_all})"
+        if levels["1"]["failed"] == levels["0.5"]["failed"] == n_all
+        else f"{levels['1']['failed']} of {n_all} fail at 1 m, {levels['0.5']['failed']} at 0.5 m"
+    )
+    cost = record["diagnose"]
+    coarse, fine = cost["bspline, 1 m, 2x2 points"], cost["bspline, 0.5 m"]
+    return (
+        f"Against the 0.5 m answer on {n_all} realizations, {to_half}; on the "
+        f"{len(orders['runout_m']['realizations'])} realizations run at every h, against the converged value "
+        f"({reference}), {to_converged}. The failed/stood verdict: {verdict}. 0.5 m costs "
+        f"{fine['s_per_realization'] / coarse['s_per_realization']:.1f}× the time per run (the uniform slopes of "
+        f"the locking study below, one thread: {coarse['s_per_realization']:.1f} s against "
+        f"{fine['s_per_realization']:.1f} s; `benchmarks/results/convergence.json`)."
+    )
+
+
+def route_label(name: str) -> str:
+    """A locking-study route's change as the docs write it: 'linear, 1 m, 2x2 points' → '2 × 2 points'."""
+    change = name.split(", ", 2)[-1]
+    return re.sub(r"(\d)x(\d)", r"\1 × \2", change).replace("nu ", "ν ")
+
+
+def locking_routes() -> str:
+    """docs/engine.md: the bilinear 1 m runouts of the long slope at φ 30° and 34°, one change at a time."""
+    routes = result("convergence.json")["diagnose"]
+    cells = [
+        f"{route_label(name)} {' / '.join('0' if r == 0 else f'{r:.1f}' for r in entry['runout_m'])}"
+        for name, entry in routes.items()
+        if name.startswith("linear, 1 m")
+    ]
+    return "; ".join(cells) + " (`benchmarks/results/convergence.json`)."
+
+
+def locking_bspline() -> str:
+    """docs/engine.md: the converged slide's depth and the B-spline runouts of the locking study's slopes."""
+    routes = result("convergence.json")["diagnose"]
+    fine = routes["bspline, 0.5 m"]
+
+    def pair(values: list[float]) -> str:
+        return " / ".join(f"{v:.1f}" for v in values)
+
+    return (
+        f"The converged slide starts {pair(fine['slide_depth_m'])} m below the surface (B-spline 0.5 m). With "
+        f"B-splines at 1 m the same slopes run out {pair(routes['bspline, 1 m, 2x2 points']['runout_m'])} m with "
+        f"2 × 2 points and {pair(routes['bspline, 1 m, 4x4 points']['runout_m'])} m with 4 × 4, against "
+        f"{pair(fine['runout_m'])} m at 0.5 m."
+    )
+
+
 def speedups(cheap: dict[str, Any], quantities: list[str], wanted: list[str], runs: list[int]) -> str:
     """'a / b×' of the measured speed-ups of ``wanted`` quantities at ``runs`` accurate runs' time."""
     at = {budget["high_runs"]: budget["speedup"] for budget in cheap["budgets"]}
@@ -835,6 +928,106 @@ def multifidelity_routes() -> str:
     return "\n".join(lines)
 
 
+def indicator_ceiling(rho: float) -> float:
+    """The correlation of 1[h > median] with its exact conditional probability given l, for (l, h) bivariate
+    normal with correlation ``rho``: the best any regression on a cheap runout can do for an exceedance
+    probability at the median (Var Φ(aZ) = arcsin(a² / (1 + a²)) / 2π, a = ρ / √(1 − ρ²))."""
+    a2 = rho**2 / (1 - rho**2)
+    return math.sqrt(2 * math.asin(a2 / (1 + a2)) / math.pi)
+
+
+def needed_cost_ratio(rho: float, speedup: float) -> float:
+    """How many times cheaper than the accurate route a cheap route correlating ``rho`` must be for the MFMC
+    optimum, 1 / (√(1 − ρ²) + ρ √(c_L / c_H))², to reach ``speedup``."""
+    root = (1 / math.sqrt(speedup) - math.sqrt(1 - rho**2)) / rho
+    return 1 / root**2 if root > 0 else math.inf
+
+
+def route_span(route: dict[str, Any], quantities: list[str], names: list[str]) -> str:
+    """'a–b×': the lowest and highest measured speed-up of ``names`` over every budget."""
+    values = [b["speedup"][quantities.index(n)] for b in route["budgets"] for n in names]
+    return f"{min(values):.1f}–{max(values):.1f}×"
+
+
+def multifidelity_levers() -> str:
+    """docs/fidelity.md: what each lever of the correction did, from multifidelity.json (speed-ups, correlations,
+    costs, the routes' means)."""
+    record = result("multifidelity.json", legacy=True)
+    quantities, cheap, routes = record["analysis"]["quantities"], record["analysis"]["cheap"], record["routes"]
+
+    def rho(route: str, quantity: str) -> float:
+        return cheap[route]["correlation"][quantities.index(quantity)]
+
+    def mean(route: str, key: str) -> float:
+        rows = [row[key] for row in routes[route]["rows"] if row["status"] == "ok"]
+        return sum(rows) / len(rows)
+
+    one, cfl, two = "MPM 1 m", "MPM 1 m, cfl 0.8", "MPM 2 m"
+    accurate = routes["MPM 0.5 m"]["s_per_realization"]
+    w = accurate / cheap[one]["s_per_realization"]
+    regression = rho(one, "P(R > r50), regression")
+    indicators = ["P(R > r50)", "P(R > r10)"]
+    fitted = [f"{p}, regression" for p in indicators]
+    return "\n".join(
+        [
+            f"* **The regression control variate** lifted the exceedance probabilities from "
+            f"{route_span(cheap[one], quantities, indicators)} to {route_span(cheap[one], quantities, fitted)} (its "
+            f"correlation with 1[h > r] is {regression:.2f} and {rho(one, fitted[1]):.2f} instead of the indicators' "
+            f"{rho(one, indicators[0]):.2f} and {rho(one, indicators[1]):.2f}). Its ceiling: with the runouts "
+            f"correlating {rho(one, 'mean R'):.3f}, 1[h > r] stays uncertain given l near r; even the exact "
+            f"conditional probability would correlate only {indicator_ceiling(rho(one, 'mean R')):.2f} with it "
+            f"(bivariate normal at the median: at most {1 / (1 - indicator_ceiling(rho(one, 'mean R')) ** 2):.1f}× "
+            f"with infinitely many free cheap runs), the fitted one {regression:.2f}, so at most 1/(1 − ρ²) = "
+            f"{1 / (1 - regression**2):.1f}× with free cheap runs and "
+            f"{cheap[one]['predicted_speedup'][quantities.index(fitted[0])]:.1f}× at this cost ratio "
+            f"(w = {w:.1f}, MFMC optimum).",
+            f"* **The cost ratio** w = {w:.1f} is what limits the means: at ρ {rho(one, 'mean R'):.3f} the MFMC "
+            f"optimum is {cheap[one]['predicted_speedup'][0]:.1f}×.",
+            f"* **A larger time step** (CFL 0.8 instead of 0.2) made the 1 m route "
+            f"{cheap[one]['s_per_realization'] / cheap[cfl]['s_per_realization']:.1f}× cheaper at the same runout "
+            f"correlation ({rho(cfl, 'mean R'):.3f}), {max(b['speedup'][0] for b in cheap[cfl]['budgets']):.1f}× for "
+            f"mean R, **but the deposit creeps**: V and I correlate {rho(cfl, 'mean V'):.2f} and "
+            f"{rho(cfl, 'mean I'):.2f} with the 0.5 m runs (mean V {mean(cfl, 'volume_m2') / mean('MPM 0.5 m', 'volume_m2'):.1f}×, "
+            f"mean I {mean(cfl, 'influence_m') / mean('MPM 0.5 m', 'influence_m'):.1f}× the 0.5 m runs'), and the "
+            "zoning's back scarp with them. Rejected: the cheap route keeps CFL 0.2.",
+            f"* **A coarser mesh** (2 m) is {cheap[one]['s_per_realization'] / cheap[two]['s_per_realization']:.1f}× "
+            f"cheaper than 1 m but correlates {rho(two, 'mean R'):.3f} in R: no better.",
+            f"* **The GNS** ({cheap['GNS (shipped)']['s_per_realization']:.1f} s per realization against the 0.5 m "
+            f"MPM's {accurate:.1f} s on a CPU, R correlation {rho('GNS (shipped)', 'mean R'):.3f}) only costs.",
+            "",
+            f"Reaching 5× for the means at ρ {rho(one, 'mean R'):.3f} needs a cheap route "
+            f"{needed_cost_ratio(rho(one, 'mean R'), 5.0):.0f}× cheaper than the accurate one (the MFMC optimum); no "
+            f"MPM setting or the GNS was; the end-state surrogate is "
+            f"{accurate / cheap['end-state surrogate (shipped)']['s_per_realization']:,.0f}× cheaper at ρ "
+            f"{min(rho('end-state surrogate (shipped)', q) for q in ('mean R', 'mean V', 'mean I')):.3f}–"
+            f"{max(rho('end-state surrogate (shipped)', q) for q in ('mean R', 'mean V', 'mean I')):.3f} "
+            f"(`benchmarks/results/multifidelity.json`).",
+        ]
+    )
+
+
+def hifi_tuning() -> str:
+    """docs/fidelity.md: the tuned surrogate's fine-tune (time, held-out loss), its runout bias against the 0.5 m
+    MPM on the pool beside the shipped model's, and when its tuning runs pay for themselves (hifi_surrogate.json)."""
+    record = result("hifi_surrogate.json", legacy=True)
+    quantities, cheap = record["analysis"]["quantities"], record["analysis"]["cheap"]
+    tuned, shipped = cheap["end-state surrogate, tuned on 0.5 m"], cheap["end-state surrogate, shipped (1 m)"]
+    shown = [quantities.index(q) for q in quantities if q.startswith("mean") or q.endswith("regression")]
+    smallest = min(b["speedup"][k] for b in tuned["budgets"] for k in shown)
+    runs = int(record["args"]["realizations"])
+    bias = quantities.index("mean R")
+    return (
+        f"Fine-tuned {record['args']['steps']} steps on {record['train']} of the {runs} coarse-grained 0.5 m runs in "
+        f"{minutes(record['fine_tune_s'])} (2 threads); held-out loss on the other {record['held_out']}: "
+        f"{record['before']['valid_loss']:.4f} → {record['history'][-1]['valid_loss']:.5f}. On the "
+        f"{record['n']}-realization pool its runout is {true_minus(format(tuned['bias'][bias], '.2f'))} m off the "
+        f"0.5 m MPM's on average (the shipped model: {true_minus(format(shipped['bias'][bias], '.2f'))} m). The "
+        f"{runs} tuning runs are paid once per case: at the smallest speed-up in the table above ({smallest:.2f}×) the tuned "
+        f"route saves time from about {runs / (1 - 1 / smallest):.0f} accurate runs' worth of plain MC on "
+        f"(`benchmarks/results/hifi_surrogate.json`, committed in {record['committed_in']})."
+    )
+
+
 def tuned_speedups() -> str:
     """docs/fidelity.md: the end-state surrogate, shipped and tuned on 0.5 m runs, as the cheap route against the
     0.5 m MPM: speed-ups at 8 / 16 / 32 accurate runs' time and correlations (hifi_surrogate.json)."""
@@ -874,10 +1067,16 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "bench-multifidelity": bench_multifidelity,
     "bench-chain-coverage": bench_chain_coverage,
     "tuned-speedups": tuned_speedups,
+    "hifi-tuning": hifi_tuning,
     "multifidelity-routes": multifidelity_routes,
+    "multifidelity-levers": multifidelity_levers,
     "mesh-step": mesh_step,
     "convergence-table": convergence_table,
     "convergence-orders": convergence_orders,
+    "convergence-column": convergence_column,
+    "convergence-default-error": convergence_default_error,
+    "locking-routes": locking_routes,
+    "locking-bspline": locking_bspline,
 }
 
 
