@@ -894,6 +894,35 @@ ROUTE_LABELS = {
 }
 
 
+def gpu_levels() -> str:
+    """docs/fidelity.md: the mesh levels run on a GPU: their time per realization against the one-thread CPU runs',
+    their runout against those runs, and the orders their realizations give against the configured ones."""
+    gpu, cpu = result("mesh_levels_gpu.json")["case1"], result("mesh_levels.json")["case1"]
+    cells = list(gpu["seconds"])
+    agreement = gpu["cpu_agreement"]
+    worst = max(agreement, key=lambda row: row["largest_m"])
+    mean = max(abs(row["mean_difference_m"]) for row in agreement)
+
+    def order(entry: list[float] | None) -> str:
+        return "no asymptotic range" if entry is None else f"{entry[1]:.2f} [{entry[0]:.2f}, {entry[2]:.2f}]"
+
+    names = {"runout_m": "runout", "volume_m2": "volume", "influence_m": "influence"}
+    orders = "; ".join(
+        f"the {name}'s {order(gpu['mesh_order'][key])} (on the CPU's {len(cpu['realizations'])}: "
+        f"{order(cpu['mesh_order'][key])})"
+        for key, name in names.items()
+    )
+    return (
+        f"{sum(gpu['seconds'].values()):.1f} s per realization for all {len(cells)} meshes (h = "
+        f"{' / '.join(f'{float(h):g}' for h in cells)} m) in batches of 64, against "
+        f"{' + '.join(format(cpu['seconds'][h], '.0f') for h in cells)} s on one CPU thread of the 2-core machine; the runout "
+        f"agrees with the one-thread CPU runs on the {agreement[0]['n']} realizations both ran to "
+        f"{100 * worst['largest_m']:.1f} cm at most (at {worst['cell_size_m']:g} m), {100 * mean:.2f} cm on average "
+        f"(`benchmarks/results/mesh_levels_gpu.md`). That folder holds the first {len(gpu['realizations'])} "
+        f"realizations at every mesh; the orders they give, as `mesh_order` would take them: {orders}."
+    )
+
+
 def multifidelity_routes() -> str:
     """docs/fidelity.md: every cheap route against plain 0.5 m Monte Carlo at equal wall time, speed-ups at 8 / 16 /
     32 accurate runs' time with each quantity's correlation, the exceedance probabilities by the indicator and the
@@ -1071,6 +1100,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "multifidelity-routes": multifidelity_routes,
     "multifidelity-levers": multifidelity_levers,
     "mesh-step": mesh_step,
+    "gpu-levels": gpu_levels,
     "convergence-table": convergence_table,
     "convergence-orders": convergence_orders,
     "convergence-column": convergence_column,
