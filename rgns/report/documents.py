@@ -16,8 +16,9 @@ import argparse
 import json
 import math
 import re
+import statistics
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +40,17 @@ class DocumentError(ValueError):
     """A rendered passage that names no renderer, or a result file that lacks what a passage needs."""
 
 
+def parts(record: Any) -> Iterator[dict[str, Any]]:
+    """Every dict within a result record, itself first (a result made in runs records each run's commit)."""
+    if isinstance(record, dict):
+        yield record
+        for value in record.values():
+            yield from parts(value)
+    elif isinstance(record, list):
+        for value in record:
+            yield from parts(value)
+
+
 def result(name: str, legacy: bool = False) -> dict[str, Any]:
     """A committed result file, checked to record its command and commit. ``legacy``: a file made before results
     recorded their commit must say which commit committed it (``"committed_in"``), named in its place."""
@@ -47,7 +59,7 @@ def result(name: str, legacy: bool = False) -> dict[str, Any]:
     if not path.exists():
         raise DocumentError(f"{shown}: no such result file")
     record = json.loads(path.read_text())
-    made = [record, *(part for part in record.values() if isinstance(part, dict))]
+    made = list(parts(record))
     if legacy and not any(part.get(key) for part in made for key in ("commit", "commits")):
         if not record.get("committed_in"):
             raise DocumentError(f"{shown}: records no commit, nor the commit that committed it ('committed_in')")
@@ -307,6 +319,56 @@ def pair_coverage() -> str:
         + "".join(sabotage_line(record) for record in records.values()),
     ]
     return "\n".join(lines)
+
+
+def strata_spread() -> str:
+    """README: how much the stratified design cut the converged tail distances' spread against simple random pairs,
+    over interval_spread.json's development replicates (the sd of accurate part + mesh step per replicate)."""
+    designs = result("interval_spread.json")["designs"]
+
+    def spread(design: dict[str, Any]) -> tuple[int, list[float]]:
+        rows = [row for run in design["runs"] for row in run["rows"]]
+        converged = [[a + s for a, s in zip(row["accurate"], row["step"])] for row in rows]
+        columns = list(zip(*converged))
+        return len(rows), [statistics.stdev(column) for column in columns]
+
+    (simple_n, simple), (strata_n, strata) = (
+        spread(design) for name, design in sorted(designs.items(), key=lambda item: "strata" in item[0])
+    )
+    return (
+        f"The design cut the converged 1 % distance's spread from {simple[2]:.2f} to {strata[2]:.2f} m and left the "
+        f"10 % distance's at {simple[1]:.2f} / {strata[1]:.2f} m (sd over {simple_n} / {strata_n} development "
+        "replicates of the population whose relation bends: `benchmarks/results/interval_spread.md`)."
+    )
+
+
+def influence_growth() -> str:
+    """README: case 1's mean influence distance from 0.5 to 0.25 m cells (mesh_levels.json), why the 0.5 m
+    influence distances are likely short."""
+    levels = result("mesh_levels.json")["case1"]
+    fit = levels["fits"]["influence_m"]
+    half, quarter = fit["mean_0.5"]["value"], fit["mean_0.25"]["value"]
+    return (
+        f"Case 1's mean influence distance still grows by {quarter - half:.2f} m from 0.5 to 0.25 m cells "
+        f"({half:.2f} → {quarter:.2f} m on {len(levels['realizations'])} realizations: "
+        "`benchmarks/results/mesh_levels.md`), so the 0.5 m influence distances are likely short."
+    )
+
+
+def tuned_least() -> str:
+    """README: the tuned cheap route's least speed-up over the 0.5 m MPM alone, over every quantity and budget of
+    docs/fidelity.md's table (hifi_surrogate.json)."""
+    record = result("hifi_surrogate.json", legacy=True)
+    quantities = record["analysis"]["quantities"]
+    tuned = record["analysis"]["cheap"]["end-state surrogate, tuned on 0.5 m"]
+    shown = [quantities.index(q) for q in quantities if q.startswith("mean") or q.endswith("regression")]
+    least = min(b["speedup"][k] for b in tuned["budgets"] for k in shown)
+    return (
+        f"With the tuned surrogate as cheap route it reaches a given error {least:.2f}× faster than the 0.5 m MPM "
+        "alone at least, over the means of R, V and I and the exceedance probabilities at every budget measured, on "
+        f"the pool the tuning was chosen on (`{record['command']}`, committed in {record['committed_in']}: "
+        "`benchmarks/results/hifi_surrogate.md`)."
+    )
 
 
 def endstate_untouched() -> str:
@@ -1089,6 +1151,9 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "default-run": default_run,
     "site-run": site_run,
     "pair-coverage": pair_coverage,
+    "strata-spread": strata_spread,
+    "influence-growth": influence_growth,
+    "tuned-least": tuned_least,
     "cheap-route": cheap_route_choice,
     "tuned-untouched": tuned_untouched,
     "bench-fields": bench_fields,
