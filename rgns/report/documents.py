@@ -371,6 +371,28 @@ def tuned_least() -> str:
     )
 
 
+def card(name: str) -> dict[str, Any]:
+    """A shipped model's card (rgns/models/<name>), written by the rule that trained the model beside it."""
+    path = REPO / "rgns" / "models" / name
+    if not path.exists():
+        raise DocumentError(f"{path.relative_to(REPO)}: no such model card")
+    return json.loads(path.read_text())
+
+
+def endstate_training() -> str:
+    """docs/surrogates.md: how the test-case end-state model was trained, from its card."""
+    record = card("endstate_card.json")
+    runs = len(record["cases"]) * (record["realizations_per_case"] + record["held_out_per_case"])
+    evaluation = record["evaluation"]
+    loss, mean = evaluation["valid_loss"], evaluation["valid_mean_predictor_loss"]
+    return (
+        f"{runs:,} training and held-out MPM runs ({record['realizations_per_case']} + {record['held_out_per_case']} "
+        f"per case of {', '.join(record['cases'])}), then {record['steps']:,} steps in {minutes(record['wall_s'])}: "
+        f"the held-out loss ends at {loss:.6f} against the mean predictor's {mean:.3f} ({mean / loss:,.0f}× below; "
+        "`rgns/models/endstate_card.json`, learning curve in the card)."
+    )
+
+
 def endstate_untouched() -> str:
     """The test-case end-state model's card: its agreement with MPM runs of the test cases no choice touched."""
     import pandas as pd
@@ -530,6 +552,42 @@ def ood_bias_table() -> str:
         lines.append(f"| {name}{OOD_NOTES.get(name, '')}{stood(runout)} | " + " | ".join(cells) + " |")
     lines += ["", f"Seed {record['data_seed']}; `{record['command']}` ({made_note(record)})."]
     return "\n".join(lines)
+
+
+def ood_targets() -> str:
+    """docs/surrogates.md: the geometry-general surrogate against its targets (R² ≥ 0.9 for R, V and I and |relative
+    bias of R| ≤ 5 % on every unseen set; R² ≥ 0.95 for R and V on the test cases), beside the model it replaced
+    (ood_surrogate.json's "compare" rows, the same realizations)."""
+    record = result("ood_surrogate.json", legacy=True)
+    new, old = ({(row["set"], row["metric"]): row for row in record[key]} for key in ("model", "compare"))
+    sets = list(dict.fromkeys(row["set"] for row in record["model"]))
+    cases = [name for name in sets if name.startswith("case")]
+    unseen = [name for name in sets if name not in cases]
+
+    def span(rows: dict[tuple[str, str], dict[str, Any]], metrics: tuple[str, ...]) -> str:
+        values = [rows[name, metric]["r2"] for name in cases for metric in metrics]
+        return f"{min(values):.3f}–{max(values):.3f}"
+
+    missed = []
+    for name in unseen:
+        for metric in ("runout", "volume", "influence"):
+            row = new[name, metric]
+            if row["r2"] < 0.9:
+                missed.append(
+                    f"{name}'s {metric} (R² {row['r2']:.3f}; the replaced model {old[name, metric]['r2']:.3f})"
+                )
+        if abs(new[name, "runout"]["relative_bias"]) > 0.05 and not stood(new[name, "runout"]):
+            missed.append(f"{name}'s runout bias ({signed_percent(new[name, 'runout']['relative_bias'])})")
+    met = [name for name in unseen if not any(text.startswith(f"{name}'s") for text in missed)]
+    cases_met = all(new[name, metric]["r2"] >= 0.95 for name in cases for metric in ("runout", "volume"))
+    return (
+        f"Against the targets (R² ≥ 0.9 for R, V and I and |relative bias of R| ≤ 5 % on every unseen set; R² ≥ 0.95 "
+        f"for R and V on the test cases): the test cases {'meet' if cases_met else 'miss'} theirs (R and V R² "
+        f"{span(new, ('runout', 'volume'))}, where the replaced model had {span(old, ('runout', 'volume'))}); "
+        + (f"{', '.join(met)} {'meets' if len(met) == 1 else 'meet'} every one. " if met else "")
+        + ("Not met: " + "; ".join(missed) + "." if missed else "Every target is met.")
+        + f" (`benchmarks/results/ood_surrogate.json`, {made_note(record)}.)"
+    )
 
 
 def ood_bias_and_cost(record: dict[str, Any], rows: dict[tuple[str, str], dict[str, Any]]) -> str:
@@ -1147,7 +1205,9 @@ def tuned_speedups() -> str:
 RENDERERS: dict[str, Callable[[], str]] = {
     "ood-table": ood_table,
     "ood-bias-table": ood_bias_table,
+    "ood-targets": ood_targets,
     "endstate-untouched": endstate_untouched,
+    "endstate-training": endstate_training,
     "default-run": default_run,
     "site-run": site_run,
     "pair-coverage": pair_coverage,
