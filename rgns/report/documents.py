@@ -554,6 +554,20 @@ def ood_bias_table() -> str:
     return "\n".join(lines)
 
 
+def endstate_speed() -> str:
+    """docs/surrogates.md: the test-case end-state model's cost per realization beside the MPM's and the GNS's, all
+    timed in one benchmark run on the same realizations (multifidelity.json)."""
+    record = result("multifidelity.json", legacy=True)
+    cost = {name: route["s_per_realization"] for name, route in record["analysis"]["cheap"].items()}
+    accurate = record["routes"]["MPM 0.5 m"]["s_per_realization"]
+    model = cost["end-state surrogate (shipped)"]
+    return (
+        f"{1000 * model:.1f} ms per realization against {cost['MPM 1 m']:.2f} s for the 1 m MPM, {accurate:.1f} s for "
+        f"the 0.5 m MPM and {cost['GNS (shipped)']:.1f} s for the GNS ({record['n']} case-1 realizations, "
+        f"{record['machine']}; `{record['command']}`, committed in {record['committed_in']})."
+    )
+
+
 def ood_targets() -> str:
     """docs/surrogates.md: the geometry-general surrogate against its targets (R² ≥ 0.9 for R, V and I and |relative
     bias of R| ≤ 5 % on every unseen set; R² ≥ 0.95 for R and V on the test cases), beside the model it replaced
@@ -1206,6 +1220,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "ood-table": ood_table,
     "ood-bias-table": ood_bias_table,
     "ood-targets": ood_targets,
+    "endstate-speed": endstate_speed,
     "endstate-untouched": endstate_untouched,
     "endstate-training": endstate_training,
     "default-run": default_run,
