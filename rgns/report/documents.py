@@ -379,6 +379,37 @@ def card(name: str) -> dict[str, Any]:
     return json.loads(path.read_text())
 
 
+def gns_training() -> str:
+    """docs/surrogates.md: how the shipped GNS was trained and how far its one-step loss fell, from its card."""
+    record = card("card.json")
+    sets = record["config"]["sets"]
+    train, valid = (sum(entry["count"] for entry in sets[name]) for name in ("train", "valid"))
+    last, kept = record["last_validation"], record["kept_validation"]
+    mean = last["valid_mean_predictor_loss"]
+    return (
+        f"{train} training and {valid} held-out runs of the embedded MPM, then {record['steps']:,} training steps in "
+        f"{minutes(record['wall_s'])} on one thread. Its one-step loss on the held-out windows ends "
+        f"{mean / last['valid_one_step_loss']:.1f}× below the mean predictor's (the kept step-"
+        f"{record['selected_step']:,} checkpoint: {mean / kept['valid_one_step_loss']:.1f}×; "
+        "`rgns/models/card.json`)."
+    )
+
+
+def general_training() -> str:
+    """docs/surrogates.md: what the geometry-general end-state model learned from and how long it trained, from its
+    card."""
+    record = card("endstate_general_card.json")
+    sets = len(record["cases"])
+    evaluation = record["evaluation"]
+    return (
+        f"It was trained on {sets * record['realizations_per_case']:,} MPM runs (plus "
+        f"{sets * record['held_out_per_case']:,} held out; {record['realizations_per_case']} + "
+        f"{record['held_out_per_case']} per set of {sets}), {record['steps']:,} steps in {minutes(record['wall_s'])} "
+        f"on the GPU; its held-out loss ends at {evaluation['valid_loss']:.4f} against the mean predictor's "
+        f"{evaluation['valid_mean_predictor_loss']:.3f} (`rgns/models/endstate_general_card.json`)."
+    )
+
+
 def endstate_training() -> str:
     """docs/surrogates.md: how the test-case end-state model was trained, from its card."""
     record = card("endstate_card.json")
@@ -1223,6 +1254,8 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "endstate-speed": endstate_speed,
     "endstate-untouched": endstate_untouched,
     "endstate-training": endstate_training,
+    "general-training": general_training,
+    "gns-training": gns_training,
     "default-run": default_run,
     "site-run": site_run,
     "pair-coverage": pair_coverage,
