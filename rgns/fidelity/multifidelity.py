@@ -285,9 +285,13 @@ def regression_at(
 def exceedance_given(predicted: np.ndarray, spread: np.ndarray, low: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
     """P(h > t | l) at each cheap value ``low`` [..., M] from the regression's ``predicted`` value and ``spread``
     there (:func:`regression_at`) and ``thresholds`` [T] → [..., M, T]; a non-finite ``low`` gives 1[l > t]."""
-    smooth = special.ndtr((predicted[..., None] - thresholds) / spread[..., None])  # norm.cdf less its wrapper
-    step = low[..., None] > thresholds
-    return np.where(np.isfinite(low)[..., None], smooth, step)
+    smooth = predicted[..., None] - thresholds
+    smooth /= spread[..., None]
+    special.ndtr(smooth, out=smooth)  # norm.cdf less its wrapper, in place
+    finite = np.isfinite(low)
+    if finite.all():  # the common case: no step to build
+        return smooth
+    return np.where(finite[..., None], smooth, low[..., None] > thresholds)
 
 
 # the spread's shape is held within these multiples of its root mean square over the pairs: a line fitted to a
