@@ -211,6 +211,29 @@ def default_run() -> str:
     return " ".join(lines)
 
 
+def machine_pace() -> str:
+    """README: this machine's pace against the cost table's, the same realization run by each named commit's own
+    code (machine_pace.json), and so whether a slow timed run is the machine's or the code's."""
+    record = result("machine_pace.json")
+    table = record["cost_table"]
+    runs = record["runs"]
+    same = all(run["runout_m"] == table["runout_m"] for run in runs)
+    timed = "; ".join(
+        f"{run['seconds']:.1f} s with the code of {run['code']} ({run['date']}, load {run['load_before']:.2f} before)"
+        for run in runs
+    )
+    return (
+        f"Case 1's realization 0 at 0.5 m, one thread, took {table['seconds']:.1f} s in the cost table's run "
+        f"({table['date']}, committed in {table['commit']}) and takes {timed} (each commit's own code in a "
+        f"worktree: `{record['command']}`), "
+        + (
+            f"the same runout to the last digit ({table['runout_m']!r} m): the machine slowed, not the code."
+            if same
+            else "with another runout: the code changed what it computes."
+        )
+    )
+
+
 def site_run() -> str:
     """docs/site.md: the example site's fresh-clone run and its headline."""
     record = result("fresh_run_site.json")
@@ -1264,6 +1287,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "gns-training": gns_training,
     "default-run": default_run,
     "site-run": site_run,
+    "machine-pace": machine_pace,
     "pair-coverage": pair_coverage,
     "strata-spread": strata_spread,
     "influence-growth": influence_growth,
