@@ -12,24 +12,43 @@ from rgns.config import load_config, load_yaml
 
 REPO = Path(__file__).resolve().parent.parent
 TINY_CONFIG = REPO / "tests" / "data" / "tiny.yaml"
-# The README's test command runs the files on two workers (pytest-xdist, --dist loadfile), each taking the next
-# file as it finishes one; the longest first, so that neither is left running one alone at the end (measured with
-# --durations on 2 cores: these took 4-12 min each, the rest under 3).
+# The README's test command runs the tests on two workers (pytest-xdist), one work unit at a time each: a file, or
+# together the files that use the `built` workflow below, so that it is built once, on the worker that runs them
+# all (they change it in place, so two workers cannot share one; xdist's own --dist loadgroup cannot group them
+# under pytest 9, whose node ids it can no longer suffix). That unit first, then the other files that took minutes
+# (measured with --durations on 2 cores), so that neither worker is left running a long one alone at the end;
+# every other test keeps its place after them.
+BUILT_USERS = ("tests/test_workflow.py", "tests/test_faults.py", "tests/scene/test_site.py", "tests/test_slurm.py")
 LONGEST_FIRST = (
-    "tests/test_workflow.py",
-    "tests/test_faults.py",
     "tests/engines/test_mpm_physics.py",
     "tests/fidelity/test_mesh_extrapolation.py",
-    "tests/scene/test_site.py",
-    "tests/test_slurm.py",
     "tests/surrogates/test_endstate_general.py",
 )
 
 
+def work_unit(nodeid: str) -> str:
+    """The unit a test is handed out in: its file, or "built" for the files of BUILT_USERS."""
+    path = nodeid.split("::", 1)[0]
+    return "built" if path in BUILT_USERS else path
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The files of LONGEST_FIRST first, in that order; every other test keeps its place after them."""
-    rank = {name: k for k, name in enumerate(LONGEST_FIRST)}
-    items.sort(key=lambda item: rank.get(item.nodeid.split("::")[0], len(rank)))
+    """The units in the order they are handed out: "built", then LONGEST_FIRST, then the rest as collected."""
+    rank = {name: k + 1 for k, name in enumerate(LONGEST_FIRST)} | {"built": 0}
+    items.sort(key=lambda item: rank.get(work_unit(item.nodeid), len(rank)))
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """xdist's file-by-file scheduler, its units given by :func:`work_unit` and handed out in collection order."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class Units(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return work_unit(nodeid)
+
+    config.option.loadscopereorder = False  # the order above, not the largest unit first
+    return Units(config, log)
 
 
 @pytest.fixture(scope="session")
