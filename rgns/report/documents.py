@@ -382,10 +382,7 @@ def tuned_least() -> str:
     """README: the tuned cheap route's least speed-up over the 0.5 m MPM alone, over every quantity and budget of
     docs/fidelity.md's table (hifi_surrogate.json)."""
     record = result("hifi_surrogate.json", legacy=True)
-    quantities = record["analysis"]["quantities"]
-    tuned = record["analysis"]["cheap"]["end-state surrogate, tuned on 0.5 m"]
-    shown = [quantities.index(q) for q in quantities if q.startswith("mean") or q.endswith("regression")]
-    least = min(b["speedup"][k] for b in tuned["budgets"] for k in shown)
+    least = least_tuned_speedup(record)
     return (
         f"With the tuned surrogate as cheap route it reaches a given error {least:.2f}× faster than the 0.5 m MPM "
         "alone at least, over the means of R, V and I and the exceedance probabilities at every budget measured, on "
@@ -1166,10 +1163,29 @@ def needed_cost_ratio(rho: float, speedup: float) -> float:
     return 1 / root**2 if root > 0 else math.inf
 
 
+def measured_speedups(route: dict[str, Any], quantities: list[str], names: list[str]) -> list[float]:
+    """Every measured speed-up of a cheap route for ``names``, at every budget."""
+    return [budget["speedup"][quantities.index(name)] for budget in route["budgets"] for name in names]
+
+
 def route_span(route: dict[str, Any], quantities: list[str], names: list[str]) -> str:
     """'a–b×': the lowest and highest measured speed-up of ``names`` over every budget."""
-    values = [b["speedup"][quantities.index(n)] for b in route["budgets"] for n in names]
+    values = measured_speedups(route, quantities, names)
     return f"{min(values):.1f}–{max(values):.1f}×"
+
+
+# the quantities of docs/fidelity.md's table of the tuned cheap route (hifi_surrogate.json)
+TUNED_COLUMNS = ["mean R", "mean V", "mean I", "P(R > r50), regression", "P(R > r10), regression"]
+
+
+def least_tuned_speedup(record: dict[str, Any]) -> float:
+    """hifi_surrogate.json: the tuned route's least speed-up over the table's quantities and budgets."""
+    analysis = record["analysis"]
+    return min(
+        measured_speedups(
+            analysis["cheap"]["end-state surrogate, tuned on 0.5 m"], analysis["quantities"], TUNED_COLUMNS
+        )
+    )
 
 
 def multifidelity_levers() -> str:
@@ -1191,6 +1207,7 @@ def multifidelity_levers() -> str:
     regression = rho(one, "P(R > r50), regression")
     indicators = ["P(R > r50)", "P(R > r10)"]
     fitted = [f"{p}, regression" for p in indicators]
+    ceiling = indicator_ceiling(rho(one, "mean R"))
     return "\n".join(
         [
             f"* **The regression control variate** lifted the exceedance probabilities from "
@@ -1198,8 +1215,8 @@ def multifidelity_levers() -> str:
             f"correlation with 1[h > r] is {regression:.2f} and {rho(one, fitted[1]):.2f} instead of the indicators' "
             f"{rho(one, indicators[0]):.2f} and {rho(one, indicators[1]):.2f}). Its ceiling: with the runouts "
             f"correlating {rho(one, 'mean R'):.3f}, 1[h > r] stays uncertain given l near r; even the exact "
-            f"conditional probability would correlate only {indicator_ceiling(rho(one, 'mean R')):.2f} with it "
-            f"(bivariate normal at the median: at most {1 / (1 - indicator_ceiling(rho(one, 'mean R')) ** 2):.1f}× "
+            f"conditional probability would correlate only {ceiling:.2f} with it "
+            f"(bivariate normal at the median: at most {1 / (1 - ceiling**2):.1f}× "
             f"with infinitely many free cheap runs), the fitted one {regression:.2f}, so at most 1/(1 − ρ²) = "
             f"{1 / (1 - regression**2):.1f}× with free cheap runs and "
             f"{cheap[one]['predicted_speedup'][quantities.index(fitted[0])]:.1f}× at this cost ratio "
@@ -1235,8 +1252,7 @@ def hifi_tuning() -> str:
     record = result("hifi_surrogate.json", legacy=True)
     quantities, cheap = record["analysis"]["quantities"], record["analysis"]["cheap"]
     tuned, shipped = cheap["end-state surrogate, tuned on 0.5 m"], cheap["end-state surrogate, shipped (1 m)"]
-    shown = [quantities.index(q) for q in quantities if q.startswith("mean") or q.endswith("regression")]
-    smallest = min(b["speedup"][k] for b in tuned["budgets"] for k in shown)
+    smallest = least_tuned_speedup(record)
     runs = int(record["args"]["realizations"])
     bias = quantities.index("mean R")
     return (
@@ -1256,7 +1272,7 @@ def tuned_speedups() -> str:
     0.5 m MPM: speed-ups at 8 / 16 / 32 accurate runs' time and correlations (hifi_surrogate.json)."""
     record = result("hifi_surrogate.json", legacy=True)
     quantities = record["analysis"]["quantities"]
-    columns = ["mean R", "mean V", "mean I", "P(R > r50), regression", "P(R > r10), regression"]
+    columns = TUNED_COLUMNS
     labels = {
         "end-state surrogate, shipped (1 m)": "end-state surrogate, shipped (learned from the 1 m MPM)",
         "end-state surrogate, tuned on 0.5 m": f"**the same, tuned on {record['args']['train']} coarse-grained "
