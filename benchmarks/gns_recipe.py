@@ -16,19 +16,22 @@ recipe before issue 15):
 Scores, all on the held-out set: the one-step loss over the mean predictor's (always the mean
 acceleration) on 128 fixed windows of smoothed frames and on the same windows of raw frames, and
 the mean |error| of the runout R over full rollouts of the first held-out runs.
-Results: ``benchmarks/results/gns_recipe.json`` and ``gns_recipe.md``.
+Results: ``benchmarks/results/gns_recipe.json`` (each variant with the commit that ran it; docs/gns-training.md
+renders it) and ``gns_recipe.md``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import torch
 
+from rgns.provenance import commit
 from rgns.surrogates.gns.data import WindowSampler
 from rgns.surrogates.gns.simulator import LearnedSimulator, ModelSettings, OneStepLoss, random_walk_noise
 from rgns.surrogates.gns.train import TrainSettings, fixed_windows, learning_rate, one_step_losses, rollout_score
@@ -144,13 +147,18 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     out = Path(args.out)
-    previous = json.loads(out.with_suffix(".json").read_text()) if out.with_suffix(".json").exists() else []
-    rows = [row for row in previous if row["variant"] not in args.variants]
+    path = out.with_suffix(".json")
+    record = json.loads(path.read_text()) if path.exists() else {}
+    record["command"] = " ".join(["python benchmarks/gns_recipe.py", *sys.argv[1:]])
+    rows = [row for row in record.get("variants", []) if row["variant"] not in args.variants]
     for name in args.variants:
-        rows.append(run_variant(name, args.train, args.valid, args.steps, args.rollouts, args.seed))
+        rows.append(
+            run_variant(name, args.train, args.valid, args.steps, args.rollouts, args.seed) | {"commit": commit()}
+        )
         print(json.dumps(rows[-1]), flush=True)
         rows.sort(key=lambda row: list(VARIANTS).index(row["variant"]))
-        out.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
+        record["variants"] = rows
+        path.write_text(json.dumps(record, indent=2) + "\n")
         out.with_suffix(".md").write_text(markdown(rows))
     print(markdown(rows))
 
