@@ -8,13 +8,16 @@ one CPU thread, alternating route by route: ``memory`` is what rgns.montecarlo.r
 built by ``rgns.scene.build.case_from_scene``), ``disk`` is what it did before (each case written as a CB-Geo
 directory into a scratch folder and read back). Prints the time per realization of each (median
 of the repeats), the ratio, the time of the case set-up alone, and whether the trajectories are
-identical (they must be: the files hold every digit).
+identical (they must be: the files hold every digit); records them in ``benchmarks/results/scenes.json``, one
+entry per run length (docs/benchmarks.md renders it).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -26,10 +29,12 @@ from rgns.config import load_config
 from rgns.engines.cbgeo.case import read_case
 from rgns.engines.cbgeo.writer import save_case
 from rgns.engines.mpm.solver import EngineSettings, run_batch
+from rgns.provenance import commit
 from rgns.scene.build import case_from_scene
 from rgns.scene.realizations import CaseInputs, draw_realization
 
 REPO = Path(__file__).resolve().parent.parent
+OUT = REPO / "benchmarks" / "results" / "scenes.json"
 
 
 def build(route: str, batch, mpm: dict, scratch: Path) -> list:
@@ -79,6 +84,22 @@ def main() -> None:
         f"  disk / memory: {statistics.median(total['disk']) / statistics.median(total['memory']):.3f}x; "
         f"trajectories identical: {identical}"
     )
+    record = json.loads(OUT.read_text()) if OUT.exists() else {"runs": []}
+    entry = {
+        "command": " ".join(["python benchmarks/bench_scenes.py", *sys.argv[1:]]),
+        "commit": commit(),
+        "realizations": len(batch),
+        "frames": args.frames,
+        "simulated_s": duration,
+        "repeats": args.repeats,
+        "seconds": {route: statistics.median(total[route]) for route in total},
+        "setup_s": {route: statistics.median(setup[route]) for route in setup},
+        "identical": identical,
+    }
+    record["runs"] = sorted(
+        [run for run in record["runs"] if run["frames"] != args.frames] + [entry], key=lambda run: run["frames"]
+    )
+    OUT.write_text(json.dumps(record, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -794,6 +794,98 @@ def bench_fields() -> str:
     return "\n".join(lines)
 
 
+def order_text(entry: list[float] | None) -> str:
+    """A mesh_order entry [lower, value, upper] as 'v [lo, hi]', or that it has no asymptotic range."""
+    return "no asymptotic range" if entry is None else f"{entry[1]:.2f} [{entry[0]:.2f}, {entry[2]:.2f}]"
+
+
+def scenes_row() -> str:
+    """docs/benchmarks.md: cases built in memory against written and read back, per run length (scenes.json)."""
+    record = result("scenes.json")
+    runs = record["runs"]
+    disk_setup = [1000 * run["setup_s"]["disk"] for run in runs]
+    memory_setup = max(1000 * run["setup_s"]["memory"] for run in runs)
+    ratios = "; ".join(
+        f"{run['simulated_s']:g} s simulated {run['seconds']['disk'] / run['seconds']['memory']:.2f}× "
+        f"({run['repeats']} repeat{'s' if run['repeats'] > 1 else ''})"
+        for run in runs
+    )
+    identical = "identical" if all(run["identical"] for run in runs) else "NOT identical"
+    return (
+        f"| Monte Carlo cases in memory vs written and read back ({runs[0]['realizations']} case-1 realizations) | "
+        f"{memory_setup:.1f} ms vs {min(disk_setup):.0f}–{max(disk_setup):.0f} ms set-up per realization; the "
+        f"disk round trip's time over the in-memory one's, per realization: {ratios} (0.15 s is the GNS warm-up); "
+        f"{identical} trajectories | "
+        + ", ".join(f"`{run['command']}`" for run in runs)
+        + " | `scenes.json` "
+        + ", ".join(sorted({run["commit"] for run in runs}))
+        + " |"
+    )
+
+
+def mesh_levels_row() -> str:
+    """docs/benchmarks.md: the embedded MPM's mesh error on the Monte Carlo's realizations (mesh_levels.json)."""
+    record = result("mesh_levels.json")
+    case1, case3 = record["case1"], record["case3"]
+    fits = case1["fits"]
+    means = " / ".join(f"{fits['runout_m'][f'mean_{h}']['value']:.2f}" for h in ("1", "0.5", "0.25"))
+    short = fits["runout_m"]["error_0.5"]
+    influence = fits["influence_m"]
+    step = next(
+        entry for entry in case1["against"]["comparisons"] if entry["quantity"].startswith("mesh step of the mean")
+    )
+    return (
+        "| the embedded MPM's mesh error on the Monte Carlo's realizations, h = 1, 0.5, 0.25 m "
+        f"(case 1: {len(case1['realizations'])}; case 3: {len(case3['realizations'])}) | case 1 mean runout {means} m, "
+        f"order {order_text(case1['mesh_order']['runout_m'])}, the 0.5 m mesh short by {-short['value']:.2f} m "
+        f"[{-short['upper']:.2f}, {-short['lower']:.2f}]; volume: {order_text(case1['mesh_order']['volume_m2'])}, "
+        f"influence: {order_text(case1['mesh_order']['influence_m'])} (case 1's mean influence grows "
+        f"{influence['mean_0.5']['value']:.2f} → {influence['mean_0.25']['value']:.2f} m from 0.5 to 0.25 m); case 3's "
+        f"runout: {order_text(case3['mesh_order']['runout_m'])}; the default run's mesh step of the mean runout "
+        f"{ends(step['headline'])} ({case1['against']['headline']}) {'holds' if step['inside'] else 'DOES NOT hold'} "
+        f"this benchmark's {ends(step['reference'])}; its cost against plain 0.25 m Monte Carlo and the 0.125 m "
+        f"levels: `benchmarks/results/mesh_levels.md` | `{record['command']}` | `mesh_levels.json` {record['commit']} |"
+    )
+
+
+def mesh_levels_gpu_row() -> str:
+    """docs/benchmarks.md: the direct 0.25 m reference of the default run's realizations, run on a GPU
+    (mesh_levels_gpu.json)."""
+    record = result("mesh_levels_gpu.json")
+    gpu = record["case1"]
+    agreement = gpu["cpu_agreement"]
+    worst = max(agreement, key=lambda row: row["largest_m"])
+    direct = [entry for entry in gpu["against"]["comparisons"] if not entry["quantity"].startswith("mesh")]
+    held = "; ".join(
+        f"{entry['quantity']} {ends(entry['headline'])} {'holds' if entry['inside'] else 'DOES NOT hold'} "
+        f"{entry['reference'][0]:.2f} m"
+        for entry in direct
+    )
+    return (
+        f"| the direct 0.25 m reference on the default run's first {len(gpu['realizations'])} case-1 realizations at "
+        f"h = {', '.join(f'{float(h):g}' for h in gpu['seconds'])} m, run on a GPU | "
+        f"{sum(gpu['seconds'].values()):.1f} s per realization for the {len(gpu['seconds'])} meshes; runout within "
+        f"{100 * worst['largest_m']:.1f} cm of the one-thread CPU runs on {agreement[0]['n']} (at "
+        f"{worst['cell_size_m']:g} m); order of the mean runout {order_text(gpu['mesh_order']['runout_m'])}, of the "
+        f"volume {order_text(gpu['mesh_order']['volume_m2'])}, of the influence "
+        f"{order_text(gpu['mesh_order']['influence_m'])}; the default run's headline ({gpu['against']['headline']}): "
+        f"{held} | `{record['command']}` | `mesh_levels_gpu.json` {record['commit']} |"
+    )
+
+
+def bench_current() -> str:
+    """docs/benchmarks.md: the current rows that are not a table of their own, each from its result file."""
+    return "\n".join(
+        [
+            "| what | figure | command | made at |",
+            "|---|---|---|---|",
+            scenes_row(),
+            mesh_levels_row(),
+            mesh_levels_gpu_row(),
+        ]
+    )
+
+
 def bench_convergence() -> str:
     """docs/benchmarks.md: the embedded MPM's mesh error on case-1 slopes, per shape function and cell size, against
     the B-spline answer at 0.5 m, and the observed orders."""
@@ -1407,6 +1499,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "cheap-route": cheap_route_choice,
     "tuned-untouched": tuned_untouched,
     "bench-fields": bench_fields,
+    "bench-current": bench_current,
     "bench-convergence": bench_convergence,
     "bench-multifidelity": bench_multifidelity,
     "bench-chain-coverage": bench_chain_coverage,
