@@ -472,12 +472,15 @@ def gns_handover() -> str:
     record = result("gns_handover.json")
     handovers = record["handovers"]
     runs = len(handovers[0]["runs"])
+    stands = [all(entry["runs"][k]["mpm_runout_m"] == 0.0 for entry in handovers) for k in range(runs)]
     lines = [
-        "| hand-over after | " + " | ".join(f"run {k + 1}" for k in range(runs)) + " |",
+        "| hand-over after | "
+        + " | ".join(f"run {k + 1}" + (" (stands)" if stands[k] else "") for k in range(runs))
+        + " |",
         "|---" * (runs + 1) + "|",
     ]
     for entry in handovers:
-        seconds = entry["warmup_frames"] * record["frame_interval_s"]
+        seconds = (entry["warmup_frames"] - 1) * record["frame_interval_s"]  # frame 0 is the start
         cells = [
             f"{row['mpm_runout_m']:.2f} → {row['gns_runout_m']:.2f}"
             + ("" if row["status"] == "ok" else f" ({row['status']})")
@@ -486,6 +489,11 @@ def gns_handover() -> str:
         lines.append(f"| {entry['warmup_frames']} frames ({seconds:g} s) | " + " | ".join(cells) + " |")
     lines += ["", f"`{record['command']}`, made at {record['commit']}."]
     return "\n".join(lines)
+
+
+def power(value: float) -> str:
+    """A power of ten as '1e-3'."""
+    return f"{value:.0e}".replace("e-0", "e-").replace("e+0", "e")
 
 
 def gns_shipped() -> str:
@@ -497,7 +505,9 @@ def gns_shipped() -> str:
     return (
         f"{record['steps']:,} steps ({minutes(record['wall_s'])} on one thread, in two runs: killed at step "
         f"{record['evaluation']['resumed_from']:,} and resumed from its checkpoint), learning rate "
-        f"{schedule['learning_rate']:g} annealed by {schedule['decay_rate']:g} over {schedule['decay_steps']:,} steps. "
+        f"{power(schedule['learning_rate'])} annealed towards {power(schedule['learning_rate'] * schedule['decay_rate'])} "
+        "over "
+        f"{schedule['decay_steps']:,} steps. "
         f"On the held-out windows the one-step loss ends at {last['valid_one_step_loss']:.3f} against the mean "
         f"predictor's {mean:.2f} ({mean / last['valid_one_step_loss']:.1f}× below); the model kept is step "
         f"{record['selected_step']:,} ({kept['valid_one_step_loss']:.3f}, {mean / kept['valid_one_step_loss']:.1f}× "
@@ -829,7 +839,6 @@ def mesh_levels_row() -> str:
     case1, case3 = record["case1"], record["case3"]
     fits = case1["fits"]
     means = " / ".join(f"{fits['runout_m'][f'mean_{h}']['value']:.2f}" for h in ("1", "0.5", "0.25"))
-    short = fits["runout_m"]["error_0.5"]
     influence = fits["influence_m"]
     step = next(
         entry for entry in case1["against"]["comparisons"] if entry["quantity"].startswith("mesh step of the mean")
@@ -837,13 +846,13 @@ def mesh_levels_row() -> str:
     return (
         "| the embedded MPM's mesh error on the Monte Carlo's realizations, h = 1, 0.5, 0.25 m "
         f"(case 1: {len(case1['realizations'])}; case 3: {len(case3['realizations'])}) | case 1 mean runout {means} m, "
-        f"order {order_text(case1['mesh_order']['runout_m'])}, the 0.5 m mesh short by {-short['value']:.2f} m "
-        f"[{-short['upper']:.2f}, {-short['lower']:.2f}]; volume: {order_text(case1['mesh_order']['volume_m2'])}, "
-        f"influence: {order_text(case1['mesh_order']['influence_m'])} (case 1's mean influence grows "
-        f"{influence['mean_0.5']['value']:.2f} → {influence['mean_0.25']['value']:.2f} m from 0.5 to 0.25 m); case 3's "
-        f"runout: {order_text(case3['mesh_order']['runout_m'])}; the default run's mesh step of the mean runout "
-        f"{ends(step['headline'])} ({case1['against']['headline']}) {'holds' if step['inside'] else 'DOES NOT hold'} "
-        f"this benchmark's {ends(step['reference'])}; its cost against plain 0.25 m Monte Carlo and the 0.125 m "
+        f"order {order_text(case1['mesh_order']['runout_m'])}, by which the 0.5 m mesh's mean runout is short by "
+        f"{ends(step['reference'])}, and the default run's mesh step of it, {ends(step['headline'])} "
+        f"({case1['against']['headline']}), {'holds' if step['inside'] else 'DOES NOT hold'} that; volume: "
+        f"{order_text(case1['mesh_order']['volume_m2'])}, influence: {order_text(case1['mesh_order']['influence_m'])} "
+        f"(case 1's mean influence grows {influence['mean_0.5']['value']:.2f} → {influence['mean_0.25']['value']:.2f} m "
+        f"from 0.5 to 0.25 m); case 3's runout: {order_text(case3['mesh_order']['runout_m'])}; the cost against plain "
+        "0.25 m Monte Carlo and the 0.125 m "
         f"levels: `benchmarks/results/mesh_levels.md` | `{record['command']}` | `mesh_levels.json` {record['commit']} |"
     )
 
