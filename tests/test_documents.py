@@ -7,7 +7,7 @@ import subprocess
 import pytest
 
 from rgns.report import documents
-from rgns.report.documents import DocumentError, rendered, stale
+from rgns.report.documents import DocumentError, rendered, runs, sources, stale
 
 
 def test_every_rendered_passage_matches_its_result_files():
@@ -30,11 +30,11 @@ def test_a_figure_edited_by_hand_is_caught_and_rewriting_restores_it(tmp_path):
 def test_a_passage_without_a_renderer_and_a_result_without_its_commit_are_named(tmp_path, monkeypatch):
     with pytest.raises(DocumentError, match=r"notes.md: rendered passage 'nothing' has no renderer"):
         rendered("<!-- rendered: nothing -->\nx\n<!-- end rendered -->\n", "notes.md")
-    monkeypatch.setattr(documents, "RESULTS", tmp_path)
-    monkeypatch.setattr(documents, "REPO", tmp_path.parent)
+    monkeypatch.setattr(sources, "RESULTS", tmp_path)
+    monkeypatch.setattr(sources, "REPO", tmp_path.parent)
     (tmp_path / "fresh_run_site.json").write_text(json.dumps({"command": "python run.py", "cases": {}}))
     with pytest.raises(DocumentError, match=r"fresh_run_site.json: records no commit or commits"):
-        documents.site_run()
+        runs.site_run()
 
 
 def test_every_commit_a_document_cites_is_in_the_history():
@@ -72,7 +72,7 @@ def test_the_pages_tail_caution_quotes_the_coverage_run_it_cites():
     population's coverage at P 0.1 and 0.01 and its count of replicates as pair_coverage_local.json holds them."""
     from rgns.report.page import TAIL_COVERAGE
 
-    record = documents.result("pair_coverage_local.json")["normal"]
+    record = sources.result("pair_coverage_local.json")["normal"]
     quoted = [f"{100 * record['summary'][p]['converged']['at_order']['coverage']:.1f} %" for p in ("0.1", "0.01")]
     assert f"{len(record['replicates'])} replicates" in TAIL_COVERAGE, TAIL_COVERAGE
     assert all(figure in TAIL_COVERAGE for figure in quoted), (quoted, TAIL_COVERAGE)

@@ -1,0 +1,119 @@
+"""docs/gns-training.md's and docs/surrogates.md's passages on the graph network simulator."""
+
+from __future__ import annotations
+
+from rgns.report.documents.formatting import minutes, power
+from rgns.report.documents.sources import card, made_note, result
+
+
+def gns_training() -> str:
+    """docs/surrogates.md: how the shipped GNS was trained and how far its one-step loss fell, from its card."""
+    record = card("card.json")
+    sets = record["config"]["sets"]
+    train, valid = (sum(entry["count"] for entry in sets[name]) for name in ("train", "valid"))
+    last, kept = record["last_validation"], record["kept_validation"]
+    mean = last["valid_mean_predictor_loss"]
+    return (
+        f"{train} training and {valid} held-out runs of the embedded MPM, then {record['steps']:,} training steps in "
+        f"{minutes(record['wall_s'])} on one thread. Its one-step loss on the held-out windows ends "
+        f"{mean / last['valid_one_step_loss']:.1f}× below the mean predictor's (the kept step-"
+        f"{record['selected_step']:,} checkpoint: {mean / kept['valid_one_step_loss']:.1f}×; "
+        "`rgns/models/card.json`)."
+    )
+
+
+# gns_recipe.py's variants as docs/gns-training.md names them, and those rolled out after the paper's 6-frame
+# hand-over (the others after 2 s of MPM); the file predates recording either
+RECIPE_LABELS = {
+    "recipe": "recipe: smoothed targets, padded frames dropped, noise 5·10⁻⁵ folded into the normalisation, "
+    "targets clipped at ±25, lr annealed 1e-3 → 1e-5",
+    "no_smoothing": "raw targets (σ = 0)",
+    "noise_2e-4": "noise 2·10⁻⁴",
+    "with_padding": "padded early-stop frames drawn too",
+    "acceleration_features": "acceleration features (below)",
+    "old": "the recipe before issue 15 (raw, padding, noise 2·10⁻⁴ not folded, no clip, lr 1e-3 decaying 0.1 per "
+    "5,000)",
+}
+SIX_FRAME_HANDOVER = {"recipe", "acceleration_features", "old"}
+
+
+def gns_recipe() -> str:
+    """docs/gns-training.md: each ingredient of the GNS's training recipe changed alone (gns_recipe.json)."""
+    record = result("gns_recipe.json", legacy=True)
+    lines = [
+        "| variant (the recipe with one change) | loss / mean predictor, smoothed windows | raw windows | "
+        "mean abs R error (m) |",
+        "|---|---:|---:|---:|",
+    ]
+    for row in record["variants"]:
+        mark = " ᵃ" if row["variant"] in SIX_FRAME_HANDOVER else ""
+        lines.append(
+            f"| {RECIPE_LABELS.get(row['variant'], row['variant'])} | {row['smoothed_loss_over_mean_predictor']:.3f} | "
+            f"{row['raw_loss_over_mean_predictor']:.3f} | {row['valid_runout_error_m']:.2f}{mark} |"
+        )
+    steps = {row["steps"] for row in record["variants"]}
+    lines += [
+        "",
+        f"{' / '.join(str(s) for s in sorted(steps))} training steps each; ᵃ rolled out after the paper's 6-frame MPM "
+        "hand-over, the other rows after 2 s (81 frames). `" + record["command"] + "`, "
+        f"`benchmarks/results/gns_recipe.json` {made_note(record)}.",
+    ]
+    return "\n".join(lines)
+
+
+def gns_jitter() -> str:
+    """docs/gns-training.md: how much of the per-frame acceleration the smoothing removes (gns_jitter.json)."""
+    record = result("gns_jitter.json")
+    raw, smooth, removed = record["raw_std"], record["smoothed_std"], record["variance_removed"]
+    return (
+        f"On the {record['runs']} held-out runs the per-frame acceleration has standard deviation "
+        f"{raw[0] * 1e3:.2f}·10⁻³ (x) and {raw[1] * 1e3:.2f}·10⁻³ (y) m/frame²; after a Gaussian filter in time of "
+        f"σ = {record['smoothing_frames']:g} frames, {smooth[0] * 1e3:.2f}·10⁻³ and {smooth[1] * 1e3:.2f}·10⁻³: the "
+        f"filter removes {removed[0]:.0%} (x) and {removed[1]:.0%} (y) of its variance (`{record['command']}`, "
+        f"made at {record['commit']})."
+    ).replace("%", " %")
+
+
+def gns_handover() -> str:
+    """docs/gns-training.md: R of held-out runs in MPM and in the GNS per hand-over (gns_handover.json)."""
+    record = result("gns_handover.json")
+    handovers = record["handovers"]
+    runs = len(handovers[0]["runs"])
+    stands = [all(entry["runs"][k]["mpm_runout_m"] == 0.0 for entry in handovers) for k in range(runs)]
+    lines = [
+        "| hand-over after | "
+        + " | ".join(f"run {k + 1}" + (" (stands)" if stands[k] else "") for k in range(runs))
+        + " |",
+        "|---" * (runs + 1) + "|",
+    ]
+    for entry in handovers:
+        seconds = (entry["warmup_frames"] - 1) * record["frame_interval_s"]  # frame 0 is the start
+        cells = [
+            f"{row['mpm_runout_m']:.2f} → {row['gns_runout_m']:.2f}"
+            + ("" if row["status"] == "ok" else f" ({row['status']})")
+            for row in entry["runs"]
+        ]
+        lines.append(f"| {entry['warmup_frames']} frames ({seconds:g} s) | " + " | ".join(cells) + " |")
+    lines += ["", f"`{record['command']}`, made at {record['commit']}."]
+    return "\n".join(lines)
+
+
+def gns_shipped() -> str:
+    """docs/gns-training.md: how the shipped GNS was trained and which checkpoint was kept, from its card."""
+    record = card("card.json")
+    last, kept = record["last_validation"], record["kept_validation"]
+    mean = last["valid_mean_predictor_loss"]
+    schedule = record["config"]["gns"]
+    return (
+        f"{record['steps']:,} steps ({minutes(record['wall_s'])} on one thread, in two runs: killed at step "
+        f"{record['evaluation']['resumed_from']:,} and resumed from its checkpoint), learning rate "
+        f"{power(schedule['learning_rate'])} annealed towards {power(schedule['learning_rate'] * schedule['decay_rate'])} "
+        "over "
+        f"{schedule['decay_steps']:,} steps. "
+        f"On the held-out windows the one-step loss ends at {last['valid_one_step_loss']:.3f} against the mean "
+        f"predictor's {mean:.2f} ({mean / last['valid_one_step_loss']:.1f}× below); the model kept is step "
+        f"{record['selected_step']:,} ({kept['valid_one_step_loss']:.3f}, {mean / kept['valid_one_step_loss']:.1f}× "
+        f"below), whose {schedule['selection_trajectories']} held-out rollouts had the best R, V, I score (mean |R error| "
+        f"{kept['valid_runout_error_m']:.2f} m; the last step's: {last['valid_runout_error_m']:.2f} m) "
+        "(`rgns/models/card.json`)."
+    )
