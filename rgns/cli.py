@@ -121,7 +121,8 @@ def _model_card(args: argparse.Namespace) -> int:
 
     card = json.loads(args.card.read_text())
     validation = args.validation.read_text() if args.validation else None
-    args.out.write_text(render_card(card, validation))
+    validated_with = load_config(args.validated_with) if args.validated_with else None
+    args.out.write_text(render_card(card, validation, validated_with))
     print(f"wrote {args.out}")
     return 0
 
@@ -175,6 +176,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     card.add_argument("card", type=Path, help="card.json")
     card.add_argument("--validation", type=Path, help="results/report/validation/table.md of a run with this model")
+    card.add_argument(
+        "--validated-with", type=Path, help="that run's config: the card then says what its realizations are"
+    )
     card.add_argument("--out", type=Path, required=True, help="card.md to write")
     card.set_defaults(run=_model_card)
     args = parser.parse_args(argv)

@@ -139,8 +139,34 @@ def make_card(
     }
 
 
-def render_card(card: dict[str, Any], validation_markdown: str | None = None) -> str:
-    """The card as Markdown (``card.md``), with the validation table against fresh MPM runs if given."""
+def validation_lines(card: dict[str, Any], validated_with: dict[str, Any]) -> list[str]:
+    """What the validation table's realizations are: the validating run's seed, that no choice touched them, and
+    per test case (every set but train and valid, as the workflow's) whether it lies in the training distribution
+    of the model (its ``train`` set)."""
+    from rgns.surrogates.endstate.card import distribution, training_ranges  # local: the end-state cards' helpers
+
+    ranges = training_ranges(card["config"], ["train"])
+    seed = validated_with["validation"]["seed"]
+    cases = [name for name in validated_with["sets"] if name not in ("train", "valid")]
+    return [
+        f"The {len(cases)} test cases ({', '.join(cases)}): realizations drawn from `validation.seed` {seed} (no "
+        f"choice touched them: the model was trained on `config/pretrain.yaml`'s seed {card['config']['seed']} and "
+        "its checkpoint chosen on that run's held-out set), run by the embedded MPM and by the GNS after the MPM "
+        "hand-over; R², NRMSE and bias with bootstrap 95 % intervals over realizations.",
+        "",
+        *(
+            f"* {case}: {distribution(set(ranges['families']), ranges['field'], validated_with['sets'][case])}"
+            for case in cases
+        ),
+        "",
+    ]
+
+
+def render_card(
+    card: dict[str, Any], validation_markdown: str | None = None, validated_with: dict[str, Any] | None = None
+) -> str:
+    """The card as Markdown (``card.md``), with the validation table against fresh MPM runs if given, and what its
+    realizations are when the validating run's config (``validated_with``) is."""
     kept, last = card["kept_validation"], card["last_validation"]
     ratio = kept["valid_one_step_loss"] / kept["valid_mean_predictor_loss"]
     lines = [
@@ -174,6 +200,7 @@ def render_card(card: dict[str, Any], validation_markdown: str | None = None) ->
         "",
     ]
     if validation_markdown:
-        lines += ["## Validation against fresh MPM runs of the test cases", "", validation_markdown.strip(), ""]
+        about = validation_lines(card, validated_with) if validated_with else []
+        lines += ["## Validation against fresh MPM runs of the test cases", "", *about, validation_markdown.strip(), ""]
     lines += ["## Config it was trained with", "", "```json", json.dumps(card["config"], indent=2), "```", ""]
     return "\n".join(lines)

@@ -93,3 +93,28 @@ def test_the_model_card_says_what_the_model_serves_and_how_far_it_trained(tmp_pa
     card = read_card()
     assert "`domain.length_m`: 80.0" in text and f"kept: step {card['selected_step']}" in text
     assert "## Validation against fresh MPM runs of the test cases" in text and "| case1 | runout |" in text
+
+
+def test_the_model_card_names_its_validation_seed_and_each_cases_distribution(tmp_path):
+    """With the validating run's config the card says which seed drew the table's realizations and, per test case,
+    whether its family and field lie in the model's training sets: a case of a trained family within the trained
+    field ranges is in distribution; another family, or a field statistic beyond them, is not."""
+    from rgns.surrogates.shipped import validation_lines
+
+    card = copy.deepcopy(read_card())
+    trained = card["config"]["sets"]["train"][0]
+    validated = load_config(REPO / "config" / "config.yaml")
+    validated["validation"]["seed"] = 271828
+    validated["sets"] = {
+        "train": [],
+        "inside": [dict(trained)],
+        "other_family": [dict(trained, family="column")],
+        "wider_field": [dict(trained, friction_std_deg=50.0)],
+    }
+    lines = "\n".join(validation_lines(card, validated))
+    assert "`validation.seed` 271828" in lines and f"seed {card['config']['seed']}" in lines
+    assert "* inside: in distribution (family trained on, field within the trained ranges)" in lines
+    assert "* other_family: OUT OF distribution (family never trained on" in lines
+    assert (
+        "* wider_field: OUT OF distribution (family trained on, field outside the trained ranges (friction_std" in lines
+    )

@@ -217,13 +217,17 @@ def _validation_source(card: dict[str, Any]) -> list[str]:
 
 
 def distribution_of(card: dict[str, Any], name: str) -> str:
-    """Whether a validation set lies in the training distribution: its geometry family trained on or not, and its
-    field statistics within the trained ranges or not."""
+    """Whether a validation set of an end-state card lies in its training distribution (:func:`distribution`)."""
     sets = card["config"]["sets"]
     trained = {group["family"] for case in card["cases"] for group in sets[case]}
-    groups = sets[name]
+    return distribution(trained, card["ranges"]["field"], sets[name])
+
+
+def distribution(trained: set[str], ranges: dict[str, list[float]], groups: list[dict[str, Any]]) -> str:
+    """Whether the realization groups of a set lie in a model's training distribution: their geometry family among
+    the ``trained`` ones or not, and their field statistics within the trained ``ranges`` ([min, max] per key of
+    FIELD_RANGE_KEYS) or not."""
     family = "family trained on" if all(g["family"] in trained for g in groups) else "family never trained on"
-    ranges = card["ranges"]["field"]
     outside = sorted(
         {
             key
