@@ -152,7 +152,10 @@ def validation_lines(card: dict[str, Any], validated_with: dict[str, Any]) -> li
         f"The {len(cases)} test cases ({', '.join(cases)}): realizations drawn from `validation.seed` {seed} (no "
         f"choice touched them: the model was trained on `config/pretrain.yaml`'s seed {card['config']['seed']} and "
         "its checkpoint chosen on that run's held-out set), run by the embedded MPM and by the GNS after the MPM "
-        "hand-over; R², NRMSE and bias with bootstrap 95 % intervals over realizations.",
+        "hand-over; R², NRMSE and bias with bootstrap 95 % intervals over realizations (`snakemake "
+        'results/report/validation/table.md --config \'montecarlo={"simulator": "gns"}\'`, then `rgns model-card '
+        "rgns/models/card.json --validation results/report/validation/table.md --validated-with <its config> --out "
+        "rgns/models/card.md`).",
         "",
         *(
             f"* {case}: {distribution(set(ranges['families']), ranges['field'], validated_with['sets'][case])}"
