@@ -17,6 +17,7 @@ import jsonschema
 import numpy as np
 import yaml
 
+from rgns.scene.sets import test_cases
 from rgns.scene.site import apply_site
 
 log = logging.getLogger(__name__)
@@ -290,12 +291,12 @@ def _shipped_tuned_errors(config: dict[str, Any]) -> list[str]:
 def _montecarlo_errors(config: dict[str, Any]) -> list[str]:
     errors = []
     section = config["montecarlo"]
-    test_cases = [name for name in config["sets"] if name not in ("train", "valid")]
+    cases = test_cases(config["sets"])
     for k, case in enumerate(section["cases"]):
-        if case not in test_cases:
+        if case not in cases:
             errors.append(
                 f"config key 'montecarlo.cases[{k}]' = {case!r}: not a test-case set "
-                f"(test cases: {', '.join(test_cases) or 'none'})"
+                f"(test cases: {', '.join(cases) or 'none'})"
             )
         elif len(config["sets"][case]) != 1:
             errors.append(

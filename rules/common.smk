@@ -9,7 +9,7 @@ from rgns.montecarlo.routes import PAIRED, monte_carlo_routes
 from rgns.scene.fields import FIELD_KEYS
 from rgns.scene.geometry import DRAW_KEYS
 from rgns.scene.realizations import CaseInputs, accurate_case_inputs, mean_vertices
-from rgns.scene.sets import realization_group, realization_ids
+from rgns.scene.sets import realization_group, realization_ids, test_cases
 from rgns.trajectories import frame_count
 
 SETS = list(config["sets"])
@@ -118,7 +118,7 @@ def chunk_of(wildcards):
 
 
 # Test cases, Monte Carlo and hazard: every set other than train/valid is a test case.
-TEST_CASES = [name for name in SETS if name not in ("train", "valid")]
+TEST_CASES = test_cases(SETS)
 MC_CASES = list(config["montecarlo"]["cases"])
 # the multi-fidelity correction's outputs per case, when montecarlo.fidelity.paired > 0
 MULTIFIDELITY_FILES = ["multifidelity.json", "multifidelity.png"] if config["montecarlo"]["fidelity"]["paired"] else []

@@ -5,6 +5,11 @@ from __future__ import annotations
 from typing import Any
 
 
+def test_cases(sets: dict[str, Any]) -> list[str]:
+    """The sets that are test cases: every one but the training sets, ``train`` and ``valid``."""
+    return [name for name in sets if name not in ("train", "valid")]
+
+
 def set_size(groups: list[dict[str, Any]]) -> int:
     """Number of realizations in a set."""
     return sum(int(group["count"]) for group in groups)

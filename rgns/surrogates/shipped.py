@@ -17,6 +17,8 @@ from typing import Any
 
 import pandas as pd
 
+from rgns.scene.sets import test_cases
+
 MODELS = Path(__file__).resolve().parents[1] / "models"
 # config keys a model is tied to: the walls it learned, the resolution and the time step
 SERVED_KEYS = (
@@ -147,7 +149,7 @@ def validation_lines(card: dict[str, Any], validated_with: dict[str, Any]) -> li
 
     ranges = training_ranges(card["config"], ["train"])
     seed = validated_with["validation"]["seed"]
-    cases = [name for name in validated_with["sets"] if name not in ("train", "valid")]
+    cases = test_cases(validated_with["sets"])
     return [
         f"The {len(cases)} test cases ({', '.join(cases)}): realizations drawn from `validation.seed` {seed} (no "
         f"choice touched them: the model was trained on `config/pretrain.yaml`'s seed {card['config']['seed']} and "
