@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from rgns.report.documents.fidelity import direct_reference
 from rgns.report.documents.formatting import ends, order_text
 from rgns.report.documents.sources import result
 
@@ -88,12 +89,6 @@ def mesh_levels_gpu_row() -> str:
     gpu = record["case1"]
     agreement = gpu["cpu_agreement"]
     worst = max(agreement, key=lambda row: row["largest_m"])
-    direct = [entry for entry in gpu["against"]["comparisons"] if not entry["quantity"].startswith("mesh")]
-    held = "; ".join(
-        f"{entry['quantity']} {ends(entry['headline'])} {'holds' if entry['inside'] else 'DOES NOT hold'} "
-        f"{entry['reference'][0]:.2f} m"
-        for entry in direct
-    )
     return (
         f"| the direct 0.25 m reference on the default run's first {len(gpu['realizations'])} case-1 realizations at "
         f"h = {', '.join(f'{float(h):g}' for h in gpu['seconds'])} m, run on a GPU | "
@@ -102,7 +97,7 @@ def mesh_levels_gpu_row() -> str:
         f"{worst['cell_size_m']:g} m); order of the mean runout {order_text(gpu['mesh_order']['runout_m'])}, of the "
         f"volume {order_text(gpu['mesh_order']['volume_m2'])}, of the influence "
         f"{order_text(gpu['mesh_order']['influence_m'])}; the default run's headline ({gpu['against']['headline']}): "
-        f"{held} | `{record['command']}` | `mesh_levels_gpu.json` {record['commit']} |"
+        f"{direct_reference(gpu)} | `{record['command']}` | `mesh_levels_gpu.json` {record['commit']} |"
     )
 
 

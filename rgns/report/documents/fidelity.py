@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from rgns.report.documents.formatting import ends, minutes, pct, true_minus
+from rgns.report.documents.formatting import ends, minutes, order_text, pct, true_minus
 from rgns.report.documents.sources import DocumentError, result
 
 
@@ -127,6 +127,17 @@ def bench_chain_coverage() -> str:
     )
 
 
+def direct_reference(levels: dict[str, Any]) -> str:
+    """Whether a default run's headline holds each quantity of a mesh-levels case's direct reference (its
+    ``against`` comparisons other than the mesh steps): 'mean runout R 10.31 m [9.71, 11.35] holds its 10.61 m; …'."""
+    return "; ".join(
+        f"{entry['quantity']} {ends(entry['headline'])} {'holds' if entry['inside'] else 'DOES NOT hold'} "
+        f"its {entry['reference'][0]:.2f} m"
+        for entry in levels["against"]["comparisons"]
+        if not entry["quantity"].startswith("mesh")
+    )
+
+
 def mesh_step() -> str:
     """README: the step to the converged mesh, its order measured on case 1, against the direct reference of the
     GPU's 0.25 m runs, and the chain's coverage on the real runs (mesh_levels.json, mesh_levels_gpu.json,
@@ -139,7 +150,6 @@ def mesh_step() -> str:
     order = cpu["case1"]["fits"]["runout_m"]["order"]
     compared = {entry["quantity"]: entry for entry in cpu["case1"]["against"]["comparisons"]}
     step = compared["mesh step of the mean runout (converged − 0.5 m; headline: over the order's interval)"]
-    direct = [entry for entry in gpu["case1"]["against"]["comparisons"] if not entry["quantity"].startswith("mesh")]
 
     coverage, distances = chain["coverage"], chain["distances"]
     mean_name = list(chain["allocation"])[0]
@@ -153,11 +163,7 @@ def mesh_step() -> str:
         f"order's uncertainty, which is most of its width. Against a direct reference, the run's first "
         f"{len(gpu['case1']['realizations'])} realizations at 0.25 m plus their own Richardson step, run on a GPU "
         f"(`benchmarks/results/mesh_levels_gpu.md`, at {gpu['commit']}), the headline "
-        + "; ".join(
-            f"{entry['quantity']} {ends(entry['headline'])} {'holds' if entry['inside'] else 'DOES NOT hold'} "
-            f"its {entry['reference'][0]:.2f} m"
-            for entry in direct
-        )
+        + direct_reference(gpu["case1"])
         + f". Over {chain['replicates']} replicates resampled from the {chain['population']} realizations at three "
         f"meshes the mean runout's sampling interval covered the known converged answer in "
         f"{pct(coverage['runout_m (sampling only)']['coverage'])} and the mean V and I in "
@@ -190,13 +196,10 @@ def gpu_levels() -> str:
     worst = max(agreement, key=lambda row: row["largest_m"])
     mean = max(abs(row["mean_difference_m"]) for row in agreement)
 
-    def order(entry: list[float] | None) -> str:
-        return "no asymptotic range" if entry is None else f"{entry[1]:.2f} [{entry[0]:.2f}, {entry[2]:.2f}]"
-
     names = {"runout_m": "runout", "volume_m2": "volume", "influence_m": "influence"}
     orders = "; ".join(
-        f"the {name}'s {order(gpu['mesh_order'][key])} (on the CPU's {len(cpu['realizations'])}: "
-        f"{order(cpu['mesh_order'][key])})"
+        f"the {name}'s {order_text(gpu['mesh_order'][key])} (on the CPU's {len(cpu['realizations'])}: "
+        f"{order_text(cpu['mesh_order'][key])})"
         for key, name in names.items()
     )
     return (
