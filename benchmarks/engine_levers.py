@@ -12,6 +12,7 @@ largest runout difference from float64 in ``benchmarks/results/engine_levers.jso
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import sys
 import time
@@ -34,7 +35,7 @@ OUT = REPO / "benchmarks" / "results" / "engine_levers.json"
 
 def timed(config: dict, indices: list[int], frames: int, dtype: str) -> tuple[float, list[float]]:
     """Seconds per realization and the runouts of ``indices`` run together at 0.5 m in ``dtype``."""
-    config = json.loads(json.dumps(config))
+    config = copy.deepcopy(config)
     config["mpm"]["embedded"]["dtype"] = dtype
     settings = replace(run_settings(config), batch_size=len(indices), frames=frames)
     inputs = CaseInputs.from_params(asdict(accurate_case_inputs(config, "case1", 0.5)))
