@@ -1,12 +1,14 @@
-"""Where the embedded MPM's time at 0.5 m goes: per-realization cost alone and batched, in float64 and float32.
+"""Where the embedded MPM's time goes: per-realization cost alone and batched, in float64 and float32, per mesh.
 
-    python benchmarks/engine_levers.py --frames 201
+    python benchmarks/engine_levers.py --frames 201 --cells 0.5 1.0
 
-Runs the first ``--batch`` case-1 Monte Carlo realizations at the accurate mesh (0.5 m cells), one CPU thread, for
-``--frames`` frames: realization 0 alone, the batch together in float64 (the default), and the batch in float32.
-A batch's cost per realization near the lone run's says the step is not bound by per-operation overhead (batching
-would amortise that); float32's says how much memory traffic costs. Records the seconds per realization and the
-largest runout difference from float64 in ``benchmarks/results/engine_levers.json``.
+Runs the first ``--batch`` case-1 Monte Carlo realizations at each ``--cells`` size (0.5 m: the accurate mesh of
+the pairs; 1 m: the Monte Carlo's, the pairs' coarse partner), one CPU thread, for ``--frames`` frames: each
+realization alone, the batch together in float64 (the default), and the batch in float32. A batch's cost per
+realization below the lone runs' is what batching the pairs buys (per-operation overhead amortised); near it,
+the step is bound by the work per particle; float32's says how much memory traffic costs. Each realization
+takes its own time step, so its runout alone and batched agree (the largest difference is recorded beside
+float32's). Records them in ``benchmarks/results/engine_levers.json``.
 """
 
 from __future__ import annotations
@@ -33,35 +35,49 @@ REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "benchmarks" / "results" / "engine_levers.json"
 
 
-def timed(config: dict, indices: list[int], frames: int, dtype: str) -> tuple[float, list[float]]:
-    """Seconds per realization and the runouts of ``indices`` run together at 0.5 m in ``dtype``."""
+def timed(config: dict, cell: float, indices: list[int], frames: int, dtype: str) -> tuple[float, list[float]]:
+    """Seconds per realization and the runouts of ``indices`` run together at ``cell`` m in ``dtype``."""
     config = copy.deepcopy(config)
     config["mpm"]["embedded"]["dtype"] = dtype
     settings = replace(run_settings(config), batch_size=len(indices), frames=frames)
-    inputs = CaseInputs.from_params(asdict(accurate_case_inputs(config, "case1", 0.5)))
+    inputs = CaseInputs.from_params(asdict(accurate_case_inputs(config, "case1", cell)))
     began = time.perf_counter()
     rows = run_realizations(inputs, indices, settings)
     return (time.perf_counter() - began) / len(indices), [float(r) for r in rows["runout_m"]]
+
+
+def levers(config: dict, cell: float, batch: list[int], frames: int) -> dict:
+    """One mesh's costs per realization alone, batched and in float32, and how far the runouts move."""
+    lone = [timed(config, cell, [i], frames, "float64") for i in batch]
+    together, runouts = timed(config, cell, batch, frames, "float64")
+    single, runouts32 = timed(config, cell, batch, frames, "float32")
+    alone_runouts = [runout for _, (runout,) in lone]
+    return {
+        "seconds_per_realization": {
+            "alone": sum(seconds for seconds, _ in lone) / len(lone),
+            "batch": together,
+            "batch_float32": single,
+        },
+        "batch_largest_runout_difference_m": max(abs(a - b) for a, b in zip(alone_runouts, runouts)),
+        "float32_largest_runout_difference_m": max(abs(a - b) for a, b in zip(runouts, runouts32)),
+    }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, default=201)
     parser.add_argument("--batch", type=int, default=4)
+    parser.add_argument("--cells", type=float, nargs="+", default=[0.5, 1.0])
     args = parser.parse_args()
     torch.set_num_threads(1)
     config = load_config(REPO / "config" / "config.yaml")
     batch = list(range(args.batch))
-    alone, _ = timed(config, [0], args.frames, "float64")
-    together, runouts = timed(config, batch, args.frames, "float64")
-    single, runouts32 = timed(config, batch, args.frames, "float32")
     record = {
         "command": " ".join(["python benchmarks/engine_levers.py", *sys.argv[1:]]),
         "commit": commit(),
         "frames": args.frames,
         "batch": args.batch,
-        "seconds_per_realization": {"alone": alone, "batch": together, "batch_float32": single},
-        "float32_largest_runout_difference_m": max(abs(a - b) for a, b in zip(runouts, runouts32)),
+        "cells": {str(cell): levers(config, cell, batch, args.frames) for cell in args.cells},
     }
     OUT.write_text(json.dumps(record, indent=1) + "\n")
     print(json.dumps(record, indent=1))

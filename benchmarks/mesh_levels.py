@@ -85,7 +85,7 @@ def run_settings(config: dict) -> RunSettings:
 def run(config: dict, cases: list[str], cells: list[float], realizations: int, first: int = 0, batch: int = 1) -> None:
     """Every missing (realization, case, cell) run from realization ``first`` on, saved one by one; with
     ``batch`` > 1, the missing ones of each aligned group of ``batch`` indices run together (one MPM batch,
-    sharing its time step; on a GPU with ``mpm.embedded.device``), each saved with the batch's seconds / size."""
+    each at its own time step; on a GPU with ``mpm.embedded.device``), each saved with the batch's seconds / size."""
     settings = run_settings(config)
     settings = replace(settings, batch_size=batch)
     device = config["mpm"]["embedded"]["device"]
@@ -604,7 +604,7 @@ def main() -> None:
         "its headline against the direct reference of the first case",
     )
     parser.add_argument("--first", type=int, default=0, help="the first realization to run (split across processes)")
-    parser.add_argument("--batch", type=int, default=1, help="realizations per MPM batch (they share its time step)")
+    parser.add_argument("--batch", type=int, default=1, help="realizations per MPM batch (each at its own time step)")
     parser.add_argument("--device", default="cpu", help="the embedded MPM's torch device (cuda: a GPU)")
     parser.add_argument("--runs", type=Path, default=RUNS, help="where the runs are saved and read")
     parser.add_argument("--no-report", action="store_true", help="run only (a worker among several)")

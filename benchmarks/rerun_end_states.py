@@ -7,9 +7,10 @@ The end states of a pretraining run (rule endstate_validation_data or endstate_d
 another machine or device (config/pretrain_general_gpu.yaml runs the MPM batches on a GPU). This
 reruns the first realizations of each set on one CPU thread and prints, per realization, R, V and I
 of the stored and the rerun end state and the largest difference of a final position, and per set
-their R²: the check that a GPU's MPM is the CPU's to rounding. The realizations of one batch share
-its time step (the CFL condition over the batch), so ``--batch-size`` other than the chunk's runs
-them on other time steps: how far the MPM's own R, V and I move with that.
+their R²: the check that a GPU's MPM is the CPU's to rounding. Each realization now takes its own time
+step, so ``--batch-size`` changes the cost only; end states made before 2026-11-28, when a batch's
+realizations shared one step (the CFL condition over the batch), differ from a rerun by how far that
+shared step moved the MPM's own R, V and I.
 """
 
 from __future__ import annotations

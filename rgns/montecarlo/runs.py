@@ -1,7 +1,8 @@
 """Monte Carlo realizations of a test case: simulate (GNS, end-state surrogate or embedded MPM) and measure the
 realizations :mod:`rgns.scene.realizations` draws. Realizations are simulated in
-batches of ``batch_size`` aligned on the index (batch k holds k·B … k·B + B − 1), so a table does
-not depend on how the realizations are split into chunks (chunk sizes are multiples of B).
+batches of ``batch_size`` (:func:`batches_of`): a learned simulator's aligned on the index (batch k holds
+k·B … k·B + B − 1), so a table does not depend on how the realizations are split into chunks (chunk sizes
+are multiples of B); the MPM's in the order listed, since each realization keeps its own time step.
 
 A GNS rollout starts, as in training and validation, from ``history + 1`` frames of MPM: the
 embedded engine runs the first 0.125 s (6 frames of 0.025 s, about 1.5 % of a 10 s run), the GNS
@@ -226,7 +227,7 @@ def run_realizations(
         raise MonteCarloError(f"montecarlo.simulator = {settings.simulator!r} needs a trained model")
     rows = []
     started = time.perf_counter()
-    batches = _aligned_batches(indices, settings.batch_size)
+    batches = batches_of(indices, settings.batch_size, aligned=settings.simulator in SURROGATES)
     screen = settings.screen or ScreenSettings()
     for number, batch_indices in enumerate(batches, start=1):
         batch = [
@@ -277,9 +278,21 @@ def _simulate(
     return simulate_mpm(batch, settings.mpm, settings.frames, settings.keep_frames)
 
 
-def _aligned_batches(indices: list[int], batch_size: int) -> list[list[int]]:
-    """Group indices by ``index // batch_size`` (the mean-field one alone), in order."""
-    groups: dict[int, list[int]] = {}
+def batches_of(indices: list[int], batch_size: int, aligned: bool) -> list[list[int]]:
+    """The realizations run together, in order, the mean-field one alone. A learned simulator's answer may
+    differ in its last bits with its batchmates, so its batches are ``aligned``: grouped by
+    ``index // batch_size``, the same whatever the chunks. The MPM's realizations do not touch each other
+    (each its own nodes and time step), so it takes them ``batch_size`` at a time: scattered indices (the
+    pairs) run together too."""
+    if aligned:
+        groups: dict[int, list[int]] = {}
+        for i in indices:
+            groups.setdefault(i // batch_size if i != MEAN_FIELD else MEAN_FIELD, []).append(i)
+        return list(groups.values())
+    batches: list[list[int]] = []
     for i in indices:
-        groups.setdefault(i // batch_size if i != MEAN_FIELD else MEAN_FIELD, []).append(i)
-    return list(groups.values())
+        if i == MEAN_FIELD or not batches or len(batches[-1]) == batch_size or batches[-1] == [MEAN_FIELD]:
+            batches.append([i])
+        else:
+            batches[-1].append(i)
+    return batches

@@ -320,3 +320,23 @@ def test_a_slope_limit_equilibrium_says_must_fail_fails_at_one_metre_cells_with_
         fronts[shape] = result.positions[-1, :, 0].max() - case.positions[:, 0].max()
     print(f"front advance at phi 34, 1 m cells: {fronts}")
     assert fronts["linear"] < 0.25 and fronts["bspline"] > 2.0
+
+
+def test_a_realization_runs_the_same_alone_and_in_a_batch_each_at_its_own_time_step(tmp_path):
+    """The step follows each realization's own fastest particle: a slope that fails and one that stands take
+    different steps, and each runs the same steps alone and batched (no batchmate sets them), to the same stored
+    frames; its stresses agree to rounding (vectorised math rounds a particle by its place in the array)."""
+    cases = [
+        polygon_case(
+            tmp_path / f"{phi}", [[0, 0], [8, 0], [4, 3], [0, 3]], 16.0, 4.0, cell_size_m=1.0, friction_deg=phi, index=k
+        )
+        for k, phi in enumerate((15.0, 45.0))
+    ]
+    settings = EngineSettings(early_stop=False)
+    together = run_batch(cases, settings, duration_s=2.0, frame_interval_s=0.05)
+    alone = [run_batch([case], settings, duration_s=2.0, frame_interval_s=0.05)[0] for case in cases]
+    assert together[0].steps > together[1].steps  # the failing slope's speed shortens its own step only
+    for batched, single in zip(together, alone):
+        assert batched.steps == single.steps
+        np.testing.assert_array_equal(batched.positions, single.positions)
+        np.testing.assert_allclose(batched.final_stress, single.final_stress, rtol=1e-12, atol=1e-9)

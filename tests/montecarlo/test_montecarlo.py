@@ -7,7 +7,7 @@ import pytest
 from conftest import TINY_CONFIG
 
 from rgns.config import load_config
-from rgns.montecarlo.runs import MonteCarloError, RunSettings, _aligned_batches, run_realizations
+from rgns.montecarlo.runs import MonteCarloError, RunSettings, batches_of, run_realizations
 from rgns.scene.fields import FieldGrid, friction_field
 from rgns.scene.geometry import build_scene
 from rgns.scene.realizations import MEAN_FIELD, CaseInputs, draw_realization, mean_field_realization
@@ -60,15 +60,17 @@ def test_the_mean_field_realization_has_uniform_mean_friction_and_the_mean_geome
 
 
 @pytest.mark.parametrize(
-    "indices, size, batches",
+    "indices, size, aligned, batches",
     [
-        ([0, 1, 2, 3, 4], 2, [[0, 1], [2, 3], [4]]),
-        ([3, 4, 5], 2, [[3], [4, 5]]),  # a chunk starting mid-batch keeps the global alignment
-        ([MEAN_FIELD], 4, [[MEAN_FIELD]]),
+        ([0, 1, 2, 3, 4], 2, True, [[0, 1], [2, 3], [4]]),
+        ([3, 4, 5], 2, True, [[3], [4, 5]]),  # a chunk starting mid-batch keeps the global alignment
+        ([MEAN_FIELD], 4, True, [[MEAN_FIELD]]),
+        ([907, 12, 4410, 3, 88], 2, False, [[907, 12], [4410, 3], [88]]),  # the MPM batches scattered pairs
+        ([0, MEAN_FIELD, 1, 2], 2, False, [[0], [MEAN_FIELD], [1, 2]]),  # in order, the mean field alone
     ],
 )
-def test_batches_are_aligned_on_the_realization_index(indices, size, batches):
-    assert _aligned_batches(indices, size) == batches
+def test_learned_simulators_batch_aligned_on_the_index_and_the_mpm_batches_in_order(indices, size, aligned, batches):
+    assert batches_of(indices, size, aligned) == batches
 
 
 def test_the_embedded_mpm_simulator_collapses_the_column_and_measures_it(tiny):

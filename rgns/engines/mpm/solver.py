@@ -1,7 +1,8 @@
 """Run a batch of case directories that share a grid: time stepping, frames, early stop, divergence.
 
 The time step follows the CFL condition dt = cfl · h / (c_p + |v|max), capped at ``dt_max_s`` and
-shrunk so a whole number of steps fills each frame interval. A realization stops early once, at
+shrunk so a whole number of steps fills each frame interval, per realization: each takes the steps its
+own particles ask for, so its trajectory is the same alone and in any batch. A realization stops early once, at
 every frame for ``early_stop_duration_s``, none of its particles has moved more than
 ``early_stop_displacement_m`` over the preceding ``early_stop_duration_s`` (net displacement:
 particle kinetic energy is no test, FLIP noise keeps it up and even growing in a deposit at rest);
@@ -235,6 +236,19 @@ def energies(particles: Particles, gravity: float, batches: int) -> torch.Tensor
     )
 
 
+def per_realization_max(values: torch.Tensor, batch: torch.Tensor, batches: int) -> list[float]:
+    """The largest of non-negative per-particle ``values`` in each realization of a batch."""
+    largest = torch.zeros(batches, dtype=values.dtype, device=values.device)
+    return largest.scatter_reduce(0, batch, values, "amax").tolist()
+
+
+def frame_substeps(settings: EngineSettings, h: float, wave_speed: float, speed: float, frame_interval_s: float) -> int:
+    """Steps of one realization over a frame: its CFL step cfl · h / (c_p + |v|max), capped at dt_max_s, fitted
+    a whole number of times into the frame. Each realization's own: a batch's realizations do not share a step."""
+    dt_cfl = settings.cfl * h / (wave_speed + speed)
+    return max(1, math.ceil(frame_interval_s / min(dt_cfl, settings.dt_max_s) - 1e-9))
+
+
 def run_batch(
     cases: list[Case],
     settings: EngineSettings,
@@ -283,21 +297,28 @@ def run_batch(
     recent = [[case.positions.astype(np.float32)] for case in cases]  # the last window + 1 frames
     quiet = np.zeros(len(cases))
     initial_total = initial.sum(1)
-    wave_speed = torch.sqrt(particles.material.p_wave_modulus * particles.volume / particles.mass).max().item()
-    steps = 0
+    wave_speed = per_realization_max(
+        torch.sqrt(particles.material.p_wave_modulus * particles.volume / particles.mass), particles.batch, len(cases)
+    )
+    steps = [0] * len(cases)
     for frame in range(1, n_frames):
-        speed = torch.sqrt(particles.vx**2 + particles.vy**2).max().item()
-        dt_cfl = settings.cfl * grid.h / (wave_speed + speed)
-        substeps = max(1, math.ceil(frame_interval_s / min(dt_cfl, settings.dt_max_s) - 1e-9))
-        dt = frame_interval_s / substeps
+        speeds = per_realization_max(torch.sqrt(particles.vx**2 + particles.vy**2), particles.batch, len(live))
+        substeps = [
+            frame_substeps(settings, grid.h, wave_speed[c], speed, frame_interval_s) for c, speed in zip(live, speeds)
+        ]
+        dt = [frame_interval_s / n for n in substeps]
         outside_region = torch.zeros(len(live), dtype=torch.long, device=device)
         repeated = boundary.repeat(len(live))
-        for _ in range(substeps):
+        for k in range(max(substeps)):
+            step_dt = torch.tensor([d if k < n else 0.0 for d, n in zip(dt, substeps)], dtype=dtype, device=device)
             weights = basis(particles.x, particles.y)
             if not bool(weights.inside.all()):
                 outside_region.index_add_(0, particles.batch, (~weights.inside).long())
-            substep(particles, weights, basis.n_nodes, repeated, gravity, len(live), dt, settings.pic_blend, damping)
-        steps += substeps
+            substep(
+                particles, weights, basis.n_nodes, repeated, gravity, len(live), step_dt, settings.pic_blend, damping
+            )
+        for c, n in zip(live, substeps):
+            steps[c] += n
         now = frame * frame_interval_s
         energy = energies(particles, g, len(live))
         state_finite = (
@@ -357,8 +378,8 @@ def run_batch(
                 now,
                 len(live),
                 len(cases),
-                dt,
-                steps,
+                min(dt),
+                max(steps),
             )
         if not live:
             break
@@ -375,6 +396,6 @@ def run_batch(
         elif not ran_to_end:
             stored = [stored[0], stored[-1], stored[-1]]
         result.positions, result.time_s, result.energies = np.stack(stored), time_s[kept], np.stack(energy_rows)
-        result.steps, result.wall_s, result.final_stress = steps, wall, last_stress[case_index]
+        result.steps, result.wall_s, result.final_stress = steps[case_index], wall, last_stress[case_index]
         out.append(result)
     return out

@@ -98,7 +98,7 @@ def p2g(particles: Particles, weights: Weights, n_nodes: int, boundary: Boundary
     return Nodal(flat, mass, vx.masked_fill(boundary.fixed_x, 0.0), vy.masked_fill(boundary.fixed_y, 0.0), active)
 
 
-def stress_update(particles: Particles, weights: Weights, nodal: Nodal, dt: float) -> torch.Tensor:
+def stress_update(particles: Particles, weights: Weights, nodal: Nodal, dt: torch.Tensor) -> torch.Tensor:
     """Update stresses and volumes from the nodal velocities; returns the yielding mask [P]."""
     vx, vy = _gather(nodal.vx, nodal.flat), _gather(nodal.vy, nodal.flat)
     dxx = dt * (vx * weights.grad_x).sum(0)
@@ -117,7 +117,7 @@ def stress_update(particles: Particles, weights: Weights, nodal: Nodal, dt: floa
 
 
 def _floor_friction(
-    ax: torch.Tensor, ay: torch.Tensor, vx: torch.Tensor, boundary: Boundary, dt: float
+    ax: torch.Tensor, ay: torch.Tensor, vx: torch.Tensor, boundary: Boundary, dt: torch.Tensor
 ) -> torch.Tensor:
     """CB-Geo's Coulomb friction on floor nodes pushed into the floor: the new x acceleration."""
     pushing = boundary.floor & (ay < 0)
@@ -134,7 +134,7 @@ def grid_update(
     nodal: Nodal,
     gravity: tuple[float, float],
     boundary: Boundary,
-    dt: float,
+    dt: torch.Tensor,
     damping: float = 0.0,
 ) -> tuple[torch.Tensor, ...]:
     """Nodal acceleration and new velocity (x and y) from internal and gravity forces, friction, constraints.
@@ -162,7 +162,9 @@ def grid_update(
     )
 
 
-def g2p(particles: Particles, weights: Weights, nodal: Nodal, nodal_update: tuple, dt: float, pic_blend: float) -> None:
+def g2p(
+    particles: Particles, weights: Weights, nodal: Nodal, nodal_update: tuple, dt: torch.Tensor, pic_blend: float
+) -> None:
     """FLIP velocity update, optionally blended with PIC; positions move with nodal velocities."""
     ax, ay, vx, vy = (_gather(values, nodal.flat) for values in nodal_update)
     w = weights.value
@@ -182,13 +184,25 @@ def substep(
     boundary: Boundary,
     gravity: tuple[float, float],
     batches: int,
-    dt: float,
+    dt: torch.Tensor,
     pic_blend: float,
     damping: float = 0.0,
 ) -> torch.Tensor:
-    """Advance every realization by ``dt`` (``boundary`` already repeated per batch); returns yielding."""
+    """Advance realization b by ``dt[b]`` (``boundary`` already repeated per batch); returns yielding.
+
+    Each realization has its own step, so its trajectory does not depend on the batch it runs in; one
+    with ``dt[b] = 0`` (it has taken its steps of the frame while others go on) is left exactly as it was.
+    """
+    particle_dt, node_dt = dt[particles.batch], dt.repeat_interleave(n_nodes)
+    waiting = particle_dt == 0
+    before = (particles.vx, particles.vy, particles.sxx, particles.syy, particles.szz, particles.txy)
     nodal = p2g(particles, weights, n_nodes, boundary, batches)
-    yielded = stress_update(particles, weights, nodal, dt)
-    update = grid_update(particles, weights, nodal, gravity, boundary, dt, damping)
-    g2p(particles, weights, nodal, update, dt, pic_blend)
+    yielded = stress_update(particles, weights, nodal, particle_dt)
+    update = grid_update(particles, weights, nodal, gravity, boundary, node_dt, damping)
+    g2p(particles, weights, nodal, update, particle_dt, pic_blend)
+    if bool(waiting.any()):
+        names = ("vx", "vy", "sxx", "syy", "szz", "txy")
+        for name, old in zip(names, before):
+            setattr(particles, name, torch.where(waiting, old, getattr(particles, name)))
+        yielded = yielded & ~waiting
     return yielded
