@@ -76,3 +76,18 @@ def test_the_pages_tail_caution_quotes_the_coverage_run_it_cites():
     quoted = [f"{100 * record['summary'][p]['converged']['at_order']['coverage']:.1f} %" for p in ("0.1", "0.01")]
     assert f"{len(record['replicates'])} replicates" in TAIL_COVERAGE, TAIL_COVERAGE
     assert all(figure in TAIL_COVERAGE for figure in quoted), (quoted, TAIL_COVERAGE)
+
+
+def test_a_runs_time_without_its_pairs_is_its_other_jobs_share_of_15_min_on_2_cores():
+    """The README says what a 15 min run on 2 cores leaves the pairs: the other jobs' summed time against 30
+    core-minutes."""
+    rules = {
+        "mc_chunk [paired]": {"jobs": 8, "job_seconds": 2400.0},
+        "mpm_run": {"jobs": 8, "job_seconds": 600.0},
+        "mc_chunk [paired_coarse]": {"jobs": 8, "job_seconds": 500.0},
+        "mc_collect [paired]": {"jobs": 1, "job_seconds": 5.0},
+        "mc_chunk [realizations]": {"jobs": 10, "job_seconds": 300.0},
+    }
+    lines = runs.time_lines({"rules": rules, "cases": {"mine": {}}}, "mine")
+    assert lines[-1].startswith("Without the jobs of the pairs' MPM routes ([paired], [paired_coarse]) it took 15 min")
+    assert "50% of the 30 core-minutes" in lines[-1]

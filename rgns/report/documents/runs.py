@@ -88,6 +88,14 @@ def time_lines(record: dict[str, Any], case: str) -> list[str]:
             + (", the rest less" if len(rules) > len(largest) else "")
             + " (per rule and route, from Snakemake's log)."
         )
+        pairs = {name: entry for name, entry in rules.items() if "[paired" in name}
+        if pairs:
+            rest = total - sum(entry["job_seconds"] for entry in pairs.values())
+            routes = sorted({name[name.index("[") :] for name in pairs})
+            lines.append(
+                f"Without the jobs of the pairs' MPM routes ({', '.join(routes)}) it took {minutes(rest)} of job time: "
+                f"{rest / (15 * 60 * 2):.0%} of the 30 core-minutes that 15 min on 2 cores holds, at this run's pace."
+            )
     return lines
 
 
