@@ -32,8 +32,8 @@ import pandas as pd
 
 from rgns.engines.batch import Simulated, run_mpm, simulate_mpm
 from rgns.engines.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
-from rgns.montecarlo.routes import chunk_share
 from rgns.montecarlo.screening import ScreenSettings, minimum_factor_of_safety
+from rgns.montecarlo.tables import COLUMNS
 from rgns.scene.realizations import (
     FINISHED,
     MEAN_FIELD,
@@ -45,7 +45,6 @@ from rgns.scene.realizations import (
 from rgns.surrogates.endstate.model import EndStateModel
 from rgns.surrogates.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
 from rgns.surrogates.gns.simulator import LearnedSimulator
-from rgns.tables import TableError, read_chunk
 from rgns.trajectories import frame_count
 
 SIMULATORS = ("gns", "endstate", "mpm")
@@ -132,38 +131,6 @@ def measure(
     row |= measured.as_row()
     row |= dict(zip(("potential_final", "kinetic_final", "dissipated_final"), energies[-1].tolist()))
     return row
-
-
-COLUMNS = [
-    "index",
-    "status",
-    "n_particles",
-    "friction_mean_deg",
-    "factor_of_safety",
-    "runout_m",
-    "volume_m2",
-    "influence_m",
-    "displaced_fraction",
-    "toe_x_m",
-    "crest_x_m",
-    "front_x_m",
-    "rear_x_m",
-    "potential_final",
-    "kinetic_final",
-    "dissipated_final",
-    "simulator",
-]
-
-
-def collect_listed(paths: list[str], indices: list[int], chunk_size: int) -> pd.DataFrame:
-    """Chunk tables that together hold the listed realizations, in the list's order, chunk k its k-th share
-    of ``chunk_size`` (rgns.montecarlo.routes.chunk_share), each checked to hold exactly those: one cut
-    short, or left over from another montecarlo config or pair plan, is named."""
-    if len(paths) != -(-len(indices) // chunk_size):
-        raise TableError(f"{len(paths)} chunk tables for {len(indices)} realizations in chunks of {chunk_size}")
-    tables = [read_chunk(path, sorted(chunk_share(indices, k, chunk_size)), COLUMNS) for k, path in enumerate(paths)]
-    table = pd.concat(tables, ignore_index=True).set_index("index", drop=False)
-    return table.loc[list(indices)].reset_index(drop=True)
 
 
 @dataclass

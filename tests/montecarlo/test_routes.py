@@ -8,7 +8,7 @@ import pytest
 
 from rgns.config import load_config
 from rgns.montecarlo.routes import PAIRED, chunk_share, monte_carlo_routes
-from rgns.montecarlo.runs import COLUMNS, collect_listed
+from rgns.montecarlo.tables import COLUMNS, collect_listed
 from rgns.scene.realizations import MEAN_FIELD
 from rgns.tables import TableError, write_csv
 

@@ -1,10 +1,10 @@
 """Rule mc_collect: one table of one route of a case's realizations, in the route's order, each chunk
-checked to hold exactly its share (rgns.montecarlo.runs.collect_listed); a route of the pairs in the
+checked to hold exactly its share (rgns.montecarlo.tables.collect_listed); a route of the pairs in the
 order rule paired_plan chose them."""
 
 from rgns.logsetup import log_to_file
 from rgns.montecarlo.routes import route_realizations
-from rgns.montecarlo.runs import collect_listed
+from rgns.montecarlo.tables import collect_listed
 from rgns.tables import write_csv
 
 log = log_to_file(snakemake.log[0])
