@@ -6,7 +6,8 @@ import signal
 import subprocess
 import sys
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -122,18 +123,24 @@ def _sliding_trajectory(index: int, frames: int = 40) -> Trajectory:
     )
 
 
-@pytest.fixture(scope="module")
-def tiny_dataset(tmp_path_factory):
-    directory = tmp_path_factory.mktemp("gns_data")
+def _packed_blocks(directory: Path, change=None) -> dict[str, str]:
+    """The sliding blocks packed into a training and a validation set, each trajectory through ``change``."""
+    directory.mkdir(parents=True, exist_ok=True)
     packed = {}
     for name, indices in (("train", [0, 1, 2]), ("valid", [3])):
         paths = []
         for index in indices:
             paths.append(directory / f"{name}{index}.h5")
-            write_trajectory(paths[-1], _sliding_trajectory(index))
+            trajectory = _sliding_trajectory(index)
+            write_trajectory(paths[-1], change(trajectory) if change else trajectory)
         packed[name] = str(directory / f"{name}.h5")
         pack(paths, packed[name], name)
     return packed
+
+
+@pytest.fixture(scope="module")
+def tiny_dataset(tmp_path_factory):
+    return _packed_blocks(tmp_path_factory.mktemp("gns_data"))
 
 
 @pytest.fixture(scope="module")
@@ -288,6 +295,65 @@ train(model, settings, {tiny_dataset["train"]!r}, {tiny_dataset["valid"]!r}, {st
     assert f"step {saved + 10}/{saved + 40}" in resumed.stdout and "step 10/" not in resumed.stdout
     assert torch.load(checkpoint, weights_only=False)["step"] == saved + 40
     assert (tmp_path / "gns.pt").exists()
+
+
+def _regenerated(trajectory: Trajectory) -> Trajectory:
+    """The trajectory as a rerun on another machine may store it: every other stored coordinate one float32
+    step up (what differs in the last digit)."""
+    stored = trajectory.positions.astype(np.float32)
+    moved = stored.copy()
+    moved.reshape(-1)[::2] = np.nextafter(stored.reshape(-1)[::2], np.float32(np.inf))
+    return replace(trajectory, positions=moved.astype(np.float64))
+
+
+def _faster(trajectory: Trajectory) -> Trajectory:
+    """Other data: the blocks slide half as far again."""
+    start = trajectory.positions[:1]
+    return replace(trajectory, positions=start + 1.5 * (trajectory.positions - start))
+
+
+def test_a_killed_training_resumes_to_identical_weights_and_on_regenerated_data_with_its_own_normalisation(
+    tiny_dataset, tmp_path
+):
+    """Ten steps, stopped, then resumed to twenty give the weights of twenty in one go (the learning rate's
+    schedule fixed by decay_steps). On the data regenerated with last-digit differences, whose recomputed
+    normalisation differs from the checkpoint's, training goes on from the checkpoint with the checkpoint's
+    normalisation (it used to start again from zero, the normalisation being part of the fingerprint); on other
+    data it starts again, the old checkpoint kept."""
+    quick = TrainSettings(
+        steps=20,
+        batch_graphs=1,
+        decay_steps=1000,
+        log_every=10,
+        validate_every=10_000,
+        checkpoint_every=10,
+        selection_trajectories=1,
+    )
+    regenerated = _packed_blocks(tmp_path / "regenerated", _regenerated)
+    other = _packed_blocks(tmp_path / "other", _faster)
+
+    def run(data: dict[str, str], folder: str, steps: int) -> dict:
+        return train(SMALL, replace(quick, steps=steps), data["train"], data["valid"], tmp_path / folder)
+
+    def saved(folder: str) -> dict:
+        return torch.load(tmp_path / folder / "checkpoints" / "latest.pt", weights_only=False)
+
+    torch.set_num_threads(1)
+    run(tiny_dataset, "whole", 20)
+    run(tiny_dataset, "stopped", 10)
+    assert run(tiny_dataset, "stopped", 20)["resumed_from"] == 10
+    whole, resumed = saved("whole")["model"], saved("stopped")["model"]
+    assert all(torch.equal(whole[key], resumed[key]) for key in whole)
+
+    run(tiny_dataset, "moved", 10)
+    before = saved("moved")["simulator"]["normalization"]
+    window = WindowSampler(regenerated["train"], SMALL.history, 1, quick.smoothing_frames)
+    assert asdict(window.normalization(quick.noise_std)) != before  # the regeneration moved the statistics
+    assert run(regenerated, "moved", 20)["resumed_from"] == 10
+    assert saved("moved")["simulator"]["normalization"] == before and saved("moved")["step"] == 20
+
+    assert run(other, "moved", 30)["resumed_from"] == 0
+    assert len(list((tmp_path / "moved" / "checkpoints").glob("stale-*.pt"))) == 1
 
 
 def test_batched_rollout_matches_one_realization_at_a_time_and_flags_divergence(tiny_dataset):

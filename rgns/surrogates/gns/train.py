@@ -9,7 +9,9 @@ full rollouts of held-out trajectories by their runout R, volume V and influence
 kept (``gns.pt``) is the checkpoint with the best rollout score, not the last iterate.
 
 A restarted job finds ``checkpoints/latest.pt`` and continues from its step with the same
-optimizer state, learning-rate position and random streams (saved with it). With several processes (torchrun,
+optimizer state, learning-rate position and random streams (saved with it), and with the checkpoint's
+normalisation: data regenerated on a fresh machine, whose statistics differ in the last digits, resumes
+(:func:`same_data`); other settings or other data start again, the checkpoint kept beside as ``stale-*.pt``. With several processes (torchrun,
 or ``processes > 1`` for gloo on CPU) the loss module is wrapped in DistributedDataParallel and
 *called through the wrapper*, so gradients are averaged across processes.
 """
@@ -35,11 +37,19 @@ from rgns.atomic import atomic_path
 from rgns.engines.metrics import runout_metrics
 from rgns.surrogates.gns.data import WindowSampler
 from rgns.surrogates.gns.rollout import RolloutSettings, rollout_soil, warmup_frame_count
-from rgns.surrogates.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, OneStepLoss, random_walk_noise
+from rgns.surrogates.gns.simulator import (
+    GraphInput,
+    LearnedSimulator,
+    ModelSettings,
+    Normalization,
+    OneStepLoss,
+    random_walk_noise,
+)
 
 log = logging.getLogger(__name__)
 CHECKPOINT = "latest.pt"
 BEST = "best.pt"
+DATA_TOLERANCE = 1e-3  # of a spread: how far a checkpoint's normalisation may sit from this data's and resume
 
 
 @dataclass
@@ -232,10 +242,39 @@ RESUME_NEUTRAL = (
 
 
 def fingerprint(simulator: LearnedSimulator, settings: TrainSettings) -> str:
-    """What a checkpoint must share with this run to be resumed: architecture, normalisation
-    (i.e. the data) and the optimisation settings, but not the step count or bookkeeping."""
+    """What a checkpoint must share exactly with this run to be resumed: architecture, bounds and the
+    optimisation settings, but not the step count or bookkeeping, nor the normalisation, which
+    :func:`same_data` compares up to rounding."""
     training = {key: value for key, value in asdict(settings).items() if key not in RESUME_NEUTRAL}
-    return json.dumps({"simulator": simulator.config(), "training": training}, sort_keys=True)
+    built = {key: value for key, value in simulator.config().items() if key != "normalization"}
+    return json.dumps({"simulator": built, "training": training}, sort_keys=True)
+
+
+def _saved_fingerprint(state: dict[str, Any]) -> str | None:
+    """A checkpoint's fingerprint as :func:`fingerprint` writes it now (one written with its normalisation in
+    it, before that was compared apart, read without it)."""
+    if "fingerprint" not in state:
+        return None
+    saved = json.loads(state["fingerprint"])
+    saved["simulator"].pop("normalization", None)
+    return json.dumps(saved, sort_keys=True)
+
+
+def same_data(saved: Normalization, recomputed: Normalization, tolerance: float = DATA_TOLERANCE) -> bool:
+    """Whether a checkpoint's normalisation is this data's up to rounding: every mean and spread within
+    ``tolerance`` of the recomputed spread. Data regenerated on a fresh machine or another device differs from
+    the checkpoint's in the last digits and resumes; other data (another set, other frames) does not."""
+    for mean, spread in (
+        ("velocity_mean", "velocity_std"),
+        ("acceleration_mean", "acceleration_std"),
+        ("tan_friction_mean", "tan_friction_std"),
+    ):
+        scale = tolerance * np.asarray(getattr(recomputed, spread), dtype=float)
+        for key in (mean, spread):
+            difference = np.asarray(getattr(saved, key), dtype=float) - np.asarray(getattr(recomputed, key))
+            if np.any(np.abs(difference) > scale):
+                return False
+    return True
 
 
 def _save(path: Path, state: dict[str, Any]) -> None:
@@ -278,18 +317,27 @@ def train(
             )
     else:
         simulator = LearnedSimulator(model, train_windows.normalization(settings.noise_std), train_windows.bounds)
+    latest, best_path = checkpoints / CHECKPOINT, checkpoints / BEST
+    state = torch.load(latest, map_location=device, weights_only=False) if latest.exists() else None
+    if state is not None:
+        saved = Normalization(**state["simulator"]["normalization"]) if "simulator" in state else None
+        if _saved_fingerprint(state) != fingerprint(simulator, settings) or saved is None:
+            reason = "other settings"
+        elif not same_data(saved, simulator.normalization):
+            reason = "other data"
+        else:  # the checkpoint's normalisation, not this data's recomputed one: a resumed model is the one saved
+            reason = None
+            simulator = LearnedSimulator(simulator.settings, saved, simulator.bounds.cpu().numpy())
+        if reason:
+            stale = latest.with_name(f"stale-{int(time.time())}.pt")
+            latest.replace(stale)
+            log.warning("%s was made with %s: kept as %s, training from scratch", latest, reason, stale)
+            state = None
     simulator = simulator.to(device)
     objective = OneStepLoss(simulator, settings.target_clip)
     step_module = DistributedDataParallel(objective) if distributed else objective
     optimizer = torch.optim.Adam(simulator.parameters(), lr=settings.learning_rate)
     start, history, elapsed, best = 0, [], 0.0, None
-    latest, best_path = checkpoints / CHECKPOINT, checkpoints / BEST
-    state = torch.load(latest, map_location=device, weights_only=False) if latest.exists() else None
-    if state is not None and state.get("fingerprint") != fingerprint(simulator, settings):
-        stale = latest.with_name(f"stale-{int(time.time())}.pt")
-        latest.replace(stale)
-        log.warning("%s was made with other settings or data: kept as %s, training from scratch", latest, stale)
-        state = None
     rng = np.random.default_rng([settings.seed, rank])
     noise_generator = torch.Generator().manual_seed(settings.seed * 1000 + rank)
     if state is not None:
