@@ -11,9 +11,9 @@ kept (``gns.pt``) is the checkpoint with the best rollout score, not the last it
 A restarted job finds ``checkpoints/latest.pt`` and continues from its step with the same
 optimizer state, learning-rate position and random streams (saved with it), and with the checkpoint's
 normalisation: data regenerated on a fresh machine, whose statistics differ in the last digits, resumes
-(:func:`same_data`); other settings or other data start again, the checkpoint kept beside as ``stale-*.pt``. With several processes (torchrun,
-or ``processes > 1`` for gloo on CPU) the loss module is wrapped in DistributedDataParallel and
-*called through the wrapper*, so gradients are averaged across processes.
+(:func:`same_data`); other settings or other data start again, the checkpoint kept beside as ``stale-*.pt``.
+With several processes (torchrun, or ``processes > 1`` for gloo on CPU) the loss module is wrapped in
+DistributedDataParallel and *called through the wrapper*, so gradients are averaged across processes.
 """
 
 from __future__ import annotations
