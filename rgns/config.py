@@ -195,6 +195,13 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
             f"config key 'sets': no {' and no '.join(missing)} set, which gns.model = "
             f"{config['gns']['model']!r} trains on (gns.model: shipped needs none)"
         )
+    embedded = config["mpm"]["embedded"]
+    if embedded["backend"] == "numba" and (embedded["device"] != "cpu" or embedded["dtype"] != "float64"):
+        errors.append(
+            f"config key 'mpm.embedded.backend' = 'numba': the compiled kernels run on the CPU in float64, not "
+            f"mpm.embedded.device = {embedded['device']!r} in mpm.embedded.dtype = {embedded['dtype']!r} "
+            f"(use backend torch, or auto)"
+        )
     families = config["geometry"]["families"]
     for set_name, groups in config["sets"].items():
         for g, group in enumerate(groups):

@@ -9,6 +9,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from conftest import REPO, TINY_CONFIG
 from workflow_helpers import scheduled, scheduled_routes, snakemake, write_config
@@ -234,7 +235,16 @@ def test_the_tiny_workflow_runs_the_whole_chain_to_the_hazard_report(built):
     assert "(a plain MPM Monte Carlo: the cheap route does not pay, see the allocation" in answer
     assert "<td>the MPM alone over 2 realizations: the cheap route does not pay" in answer
     assert "plain MPM Monte Carlo over the 2 paired realizations (the cheap route correlates" in page
-    assert multifidelity["cost"]["high_s"] > multifidelity["cost"]["low_s"] > 0
+    # each route's cost per realization is its chunks' job seconds (Snakemake's benchmark files) over its runs
+    job_seconds = {
+        route: sum(pd.read_csv(path, sep="\t")["s"].sum() for path in (results / "mc" / "case1" / route).glob("*.tsv"))
+        for route in ("realizations", "paired")
+    }
+    assert (
+        multifidelity["cost"]["low_s"] == pytest.approx(job_seconds["realizations"] / 6)
+        and job_seconds["realizations"] > 0
+    )
+    assert multifidelity["cost"]["high_s"] == pytest.approx(job_seconds["paired"] / 2) and job_seconds["paired"] > 0
     # and once more by the MPM at the Monte Carlo's 1 m mesh: the coarse level of the mesh extrapolation
     coarse = read_csv(results / "mc" / "case1" / "paired_coarse.csv")
     assert list(coarse["index"]) == plan["indices"] and (coarse["n_particles"] == 120).all()

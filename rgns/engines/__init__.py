@@ -1,6 +1,6 @@
 """The engines: a realization (:class:`rgns.scene.case.Case`) in, its trajectory out.
 
-:mod:`rgns.engines.mpm` is the embedded PyTorch MPM, which takes cases in memory and imports no file
+:mod:`rgns.engines.mpm` is the embedded MPM (compiled CPU kernels, or PyTorch), which takes cases in memory and imports no file
 format; :mod:`rgns.engines.cbgeo` writes and reads CB-Geo's case directories and runs the ``mpm``
 binary on them (with the CB-Geo comparison cases, :mod:`rgns.engines.cbgeo.reference_cases`); every
 engine runs the case :mod:`rgns.scene.build` makes; :mod:`rgns.engines.chunk` runs a chunk

@@ -20,6 +20,12 @@ def one_thread():
     torch.set_num_threads(1)
 
 
+@pytest.fixture(scope="module", params=["numba", "torch"])
+def backend(request) -> str:
+    """Every run below on each backend: the compiled kernels (the CPU default) and the torch engine."""
+    return request.param
+
+
 @pytest.mark.parametrize("shape", ["linear", "bspline"])
 def test_shape_functions_are_a_partition_of_unity_and_reproduce_linear_fields(shape):
     basis = BASES[shape](RegularGrid((-1.0, -1.0), 0.5, (20, 12)), Region((2, 2), (18, 10)))
@@ -69,7 +75,7 @@ def test_mapping_to_the_grid_conserves_mass_and_momentum_exactly(tmp_path, defau
     )
 
 
-def test_elastic_column_settles_to_the_weight_of_the_soil_above(tmp_path):
+def test_elastic_column_settles_to_the_weight_of_the_soil_above(tmp_path, backend):
     height = 10.0
     case = polygon_case(
         tmp_path / "column",
@@ -80,7 +86,7 @@ def test_elastic_column_settles_to_the_weight_of_the_soil_above(tmp_path):
         damping_factor=0.05,
         **ELASTIC,
     )
-    result = run_batch([case], EngineSettings(early_stop=False), duration_s=2.0)[0]
+    result = run_batch([case], EngineSettings(early_stop=False, backend=backend), duration_s=2.0)[0]
     mid_depth = np.abs(case.positions[:, 1] - height / 2) < 0.3
     expected = -case.density_kg_m3[mid_depth] * G * (height - case.positions[mid_depth, 1])
     ratio = result.final_stress[mid_depth, 1].mean() / expected.mean()
@@ -88,7 +94,7 @@ def test_elastic_column_settles_to_the_weight_of_the_soil_above(tmp_path):
 
 
 @pytest.mark.parametrize("shape", ["linear", "bspline"])
-def test_a_block_sliding_on_the_floor_stops_at_the_coulomb_distance(tmp_path, shape):
+def test_a_block_sliding_on_the_floor_stops_at_the_coulomb_distance(tmp_path, shape, backend):
     mu, speed = 0.5, 5.0
     case = polygon_case(
         tmp_path / "block",
@@ -105,7 +111,7 @@ def test_a_block_sliding_on_the_floor_stops_at_the_coulomb_distance(tmp_path, sh
     # flicker and over-brakes (measured: 0.63 of the Coulomb distance at E = 100 MPa).
     result = run_batch(
         [case],
-        EngineSettings(early_stop=False, shape_function=shape, pic_blend=1.0),
+        EngineSettings(early_stop=False, shape_function=shape, pic_blend=1.0, backend=backend),
         duration_s=2.0,
         initial_velocity=[start],
     )[0]
@@ -115,7 +121,7 @@ def test_a_block_sliding_on_the_floor_stops_at_the_coulomb_distance(tmp_path, sh
 
 
 @pytest.fixture(scope="module")
-def column_collapse(tmp_path_factory):
+def column_collapse(tmp_path_factory, backend):
     """Granular columns of width 2 m and several aspect ratios, one batch (references.md)."""
     width = 2.0
     specs = [(a, 35.0) for a in (0.5, 0.75, 1.0, 1.25, 1.5, 3.0, 4.0, 6.0)] + [(1.5, 45.0), (3.0, 45.0)]
@@ -135,7 +141,7 @@ def column_collapse(tmp_path_factory):
         for i, (a, phi) in enumerate(specs)
     ]
     torch.set_num_threads(1)
-    results = run_batch(cases, EngineSettings(shape_function="bspline"), duration_s=6.0)
+    results = run_batch(cases, EngineSettings(shape_function="bspline", backend=backend), duration_s=6.0)
     runout = {spec: (result.positions[-1, :, 0].max() - width) / width for spec, result in zip(specs, results)}
     return runout, results
 
@@ -172,7 +178,7 @@ SWEEP_ANGLES_DEG = (30.0, 60.0, 90.0)
 
 
 @pytest.mark.parametrize("youngs_modulus_pa", [1e6, 1e7, 1e8])
-def test_no_nan_and_no_energy_gain_across_stiffness_friction_and_slope_angle(tmp_path, youngs_modulus_pa):
+def test_no_nan_and_no_energy_gain_across_stiffness_friction_and_slope_angle(tmp_path, youngs_modulus_pa, backend):
     """Twice the default 10 s, early stop off: every run finishes, mass fixed, energy never gains > 1 %."""
     height = 4.0
     cases = []
@@ -192,7 +198,7 @@ def test_no_nan_and_no_energy_gain_across_stiffness_friction_and_slope_angle(tmp
                     youngs_modulus_pa=youngs_modulus_pa,
                 )
             )
-    results = run_batch(cases, EngineSettings(early_stop=False), duration_s=20.0)
+    results = run_batch(cases, EngineSettings(early_stop=False, backend=backend), duration_s=20.0)
     for case, result in zip(cases, results):
         assert result.status == "ok", (case.directory, result.status)
         assert np.isfinite(result.positions).all()
@@ -204,7 +210,7 @@ def test_no_nan_and_no_energy_gain_across_stiffness_friction_and_slope_angle(tmp
 
 
 @pytest.mark.parametrize("cell_size_m", [0.5, 1.0, 2.0])
-def test_no_nan_and_no_energy_gain_across_cell_size_and_time_step_up_to_the_cfl_limit(tmp_path, cell_size_m):
+def test_no_nan_and_no_energy_gain_across_cell_size_and_time_step_up_to_the_cfl_limit(tmp_path, cell_size_m, backend):
     """A 60-degree slope four cells high at cfl 0.1 ... 1.0 (dt up to the CFL limit): each run finishes
     without a non-finite state or an energy gain above 1 %, or is flagged diverged with its reason."""
     height = max(4.0, 4 * cell_size_m)
@@ -223,7 +229,7 @@ def test_no_nan_and_no_energy_gain_across_cell_size_and_time_step_up_to_the_cfl_
     ]
     outcomes = {}
     for cfl, case in zip(cfls, cases):
-        result = run_batch([case], EngineSettings(early_stop=False, cfl=cfl), duration_s=5.0)[0]
+        result = run_batch([case], EngineSettings(early_stop=False, cfl=cfl, backend=backend), duration_s=5.0)[0]
         outcomes[cfl] = result.status
         if result.status == "ok":
             assert np.isfinite(result.positions).all()
@@ -236,14 +242,14 @@ def test_no_nan_and_no_energy_gain_across_cell_size_and_time_step_up_to_the_cfl_
     assert outcomes[0.1] == outcomes[0.2] == "ok"
 
 
-def test_keeping_only_the_ends_returns_exactly_those_frames_of_a_full_run(tmp_path):
+def test_keeping_only_the_ends_returns_exactly_those_frames_of_a_full_run(tmp_path, backend):
     cases = [
         polygon_case(
             tmp_path / f"{phi}", [[0, 0], [8, 0], [4, 3], [0, 3]], 16.0, 4.0, cell_size_m=1.0, friction_deg=phi, index=k
         )
         for k, phi in enumerate((20.0, 45.0))
     ]
-    settings = EngineSettings(early_stop=True, early_stop_duration_s=0.25)
+    settings = EngineSettings(early_stop=True, early_stop_duration_s=0.25, backend=backend)
     full = run_batch(cases, settings, duration_s=3.0, frame_interval_s=0.05)
     ends = run_batch(cases, settings, duration_s=3.0, frame_interval_s=0.05, keep="ends")
     assert full[1].stopped_at_s is not None  # the 37-degree face stands at 45 degrees of friction and stops early
@@ -255,7 +261,7 @@ def test_keeping_only_the_ends_returns_exactly_those_frames_of_a_full_run(tmp_pa
 
 
 @pytest.fixture(scope="module")
-def unpadded_runs(tmp_path_factory):
+def unpadded_runs(tmp_path_factory, backend):
     """A column collapse and a failing slope on meshes that end at the walls and the floor (as CB-Geo
     users write them), and the same slope on the padded mesh rgns writes: B-splines, default settings."""
     import rgns.scene.build as build
@@ -275,7 +281,7 @@ def unpadded_runs(tmp_path_factory):
         directory / "padded", [[0, 0], [36, 0], [24, 10], [0, 10]], 60.0, 14.0, cell_size_m=1.0, index=2
     )
     assert column.nodes.min() == 0.0 and padded.nodes.min() < 0.0
-    settings = EngineSettings(shape_function="bspline")
+    settings = EngineSettings(shape_function="bspline", backend=backend)
     return (column, slope, padded), [run_batch([case], settings, duration_s=5.0)[0] for case in (column, slope, padded)]
 
 
@@ -299,15 +305,19 @@ def test_bsplines_give_the_same_run_with_and_without_padding_beyond_the_walls(un
     np.testing.assert_allclose(padded.positions, slope.positions, atol=1e-9)
 
 
-def test_a_particle_pushed_out_of_the_region_is_flagged_diverged(tmp_path):
+def test_a_particle_pushed_out_of_the_region_is_flagged_diverged(tmp_path, backend):
     case = polygon_case(tmp_path / "case", [[1, 0], [5, 0], [5, 2], [1, 2]], 10.0, 3.0, cell_size_m=0.5)
     start = np.zeros((len(case.positions), 2))
     start[:, 1] = 200.0  # upwards, through the mesh edge (the top has no wall)
-    result = run_batch([case], EngineSettings(early_stop=False), duration_s=0.5, initial_velocity=[start])[0]
+    result = run_batch(
+        [case], EngineSettings(early_stop=False, backend=backend), duration_s=0.5, initial_velocity=[start]
+    )[0]
     assert result.status.startswith("diverged: ") and "past a wall, the floor or the mesh edge" in result.status
 
 
-def test_a_slope_limit_equilibrium_says_must_fail_fails_at_one_metre_cells_with_bsplines_not_with_bilinear(tmp_path):
+def test_a_slope_limit_equilibrium_says_must_fail_fails_at_one_metre_cells_with_bsplines_not_with_bilinear(
+    tmp_path, backend
+):
     """Volumetric locking: the 39.8-degree long slope at phi 34 (infinite-slope FS = tan 34 / tan 39.8 = 0.81)
     stands on the bilinear 1 m mesh with 2 x 2 points per cell, and runs out with the default B-splines."""
     case = polygon_case(
@@ -315,14 +325,14 @@ def test_a_slope_limit_equilibrium_says_must_fail_fails_at_one_metre_cells_with_
     )
     fronts = {}
     for shape in ("linear", "bspline"):
-        result = run_batch([case], EngineSettings(shape_function=shape), duration_s=6.0)[0]
+        result = run_batch([case], EngineSettings(shape_function=shape, backend=backend), duration_s=6.0)[0]
         assert result.status == "ok"
         fronts[shape] = result.positions[-1, :, 0].max() - case.positions[:, 0].max()
     print(f"front advance at phi 34, 1 m cells: {fronts}")
     assert fronts["linear"] < 0.25 and fronts["bspline"] > 2.0
 
 
-def test_a_realization_runs_the_same_alone_and_in_a_batch_each_at_its_own_time_step(tmp_path):
+def test_a_realization_runs_the_same_alone_and_in_a_batch_each_at_its_own_time_step(tmp_path, backend):
     """The step follows each realization's own fastest particle: a slope that fails and one that stands take
     different steps, and each runs the same steps alone and batched (no batchmate sets them), to the same stored
     frames; its stresses agree to rounding (vectorised math rounds a particle by its place in the array)."""
@@ -332,7 +342,7 @@ def test_a_realization_runs_the_same_alone_and_in_a_batch_each_at_its_own_time_s
         )
         for k, phi in enumerate((15.0, 45.0))
     ]
-    settings = EngineSettings(early_stop=False)
+    settings = EngineSettings(early_stop=False, backend=backend)
     together = run_batch(cases, settings, duration_s=2.0, frame_interval_s=0.05)
     alone = [run_batch([case], settings, duration_s=2.0, frame_interval_s=0.05)[0] for case in cases]
     assert together[0].steps > together[1].steps  # the failing slope's speed shortens its own step only

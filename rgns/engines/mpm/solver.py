@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from rgns.engines.mpm.frame_kernels import FrameKernels
 from rgns.engines.mpm.mohr_coulomb import MohrCoulomb
 from rgns.engines.mpm.shape import BASES, Basis, Region, RegularGrid
 from rgns.engines.mpm.step import Boundary, Particles, substep
@@ -49,10 +50,22 @@ class EngineSettings:
     friction_source: str = "exact"
     dtype: str = "float64"
     device: str = "cpu"
+    backend: str = "auto"
 
     @classmethod
     def from_config(cls, section: dict[str, Any]) -> EngineSettings:
         return cls(**{key: section[key] for key in cls.__dataclass_fields__ if key in section})
+
+    @property
+    def kernels(self) -> bool:
+        """Whether the compiled CPU kernels run the steps (backend numba, or auto on the CPU in float64)."""
+        cpu_float64 = torch.device(self.device).type == "cpu" and self.dtype == "float64"
+        if self.backend == "numba" and not cpu_float64:
+            raise ValueError(
+                f"mpm.embedded.backend = 'numba' runs on the CPU in float64, not device {self.device!r} in "
+                f"{self.dtype}: use backend 'torch' (or 'auto')"
+            )
+        return self.backend == "numba" or (self.backend == "auto" and cpu_float64)
 
 
 @dataclass
@@ -242,11 +255,59 @@ def per_realization_max(values: torch.Tensor, batch: torch.Tensor, batches: int)
     return largest.scatter_reduce(0, batch, values, "amax").tolist()
 
 
+def summary(particles: Particles, gravity: float, batches: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per realization: kinetic, potential and elastic energy [B, 3], particles with a non-finite position or
+    velocity [B], the largest particle speed [B] (the torch engine's; FrameKernels.summary the kernels')."""
+    finite = (
+        torch.isfinite(particles.x)
+        & torch.isfinite(particles.y)
+        & torch.isfinite(particles.vx)
+        & torch.isfinite(particles.vy)
+    )
+    non_finite = torch.zeros(batches, dtype=torch.long, device=finite.device).index_add_(
+        0, particles.batch, (~finite).long()
+    )
+    speed = per_realization_max(torch.sqrt(particles.vx**2 + particles.vy**2), particles.batch, batches)
+    return energies(particles, gravity, batches).cpu().numpy(), non_finite.cpu().numpy(), np.array(speed)
+
+
+def host_state(particles: Particles, kernels: FrameKernels | None) -> tuple[np.ndarray, np.ndarray]:
+    """Positions [P, 2] (float32) and stresses [P, 4] on the host."""
+    if kernels is not None:
+        x, y, *_, sxx, syy, szz, txy = kernels.views(particles)[:10]
+        return np.stack([x, y], 1).astype(np.float32), np.stack([sxx, syy, szz, txy], 1)
+    positions = torch.stack([particles.x, particles.y], 1).cpu().numpy().astype(np.float32)
+    return positions, torch.stack([particles.sxx, particles.syy, particles.szz, particles.txy], 1).cpu().numpy()
+
+
 def frame_substeps(settings: EngineSettings, h: float, wave_speed: float, speed: float, frame_interval_s: float) -> int:
     """Steps of one realization over a frame: its CFL step cfl · h / (c_p + |v|max), capped at dt_max_s, fitted
     a whole number of times into the frame. Each realization's own: a batch's realizations do not share a step."""
     dt_cfl = settings.cfl * h / (wave_speed + speed)
     return max(1, math.ceil(frame_interval_s / min(dt_cfl, settings.dt_max_s) - 1e-9))
+
+
+def _advance_torch(
+    particles: Particles,
+    basis: Basis,
+    repeated: Boundary,
+    gravity: tuple[float, float],
+    substeps: list[int],
+    dt: list[float],
+    pic_blend: float,
+    damping: float,
+) -> torch.Tensor:
+    """One frame of the torch engine: realization b takes substeps[b] steps of dt[b]; particle steps out of the region
+    per realization [B]."""
+    device, dtype = particles.x.device, particles.x.dtype
+    outside_region = torch.zeros(len(substeps), dtype=torch.long, device=device)
+    for k in range(max(substeps)):
+        step_dt = torch.tensor([d if k < n else 0.0 for d, n in zip(dt, substeps)], dtype=dtype, device=device)
+        weights = basis(particles.x, particles.y)
+        if not bool(weights.inside.all()):
+            outside_region.index_add_(0, particles.batch, (~weights.inside).long())
+        substep(particles, weights, basis.n_nodes, repeated, gravity, len(substeps), step_dt, pic_blend, damping)
+    return outside_region
 
 
 def run_batch(
@@ -281,6 +342,7 @@ def run_batch(
     kept = kept_frames(keep, n_frames)
 
     particles = particles_of(cases, settings, device)
+    kernels = FrameKernels(basis, boundary, gravity, damping, settings.pic_blend) if settings.kernels else None
     if initial_velocity is not None:
         start = torch.as_tensor(np.concatenate(initial_velocity), dtype=dtype, device=device)
         particles.vx, particles.vy = start[:, 0].contiguous(), start[:, 1].contiguous()
@@ -290,9 +352,13 @@ def run_batch(
     history: list[list[np.ndarray]] = [[] for _ in cases]
     results: list[RunResult | None] = [None] * len(cases)
     last_stress: list[np.ndarray | None] = [None] * len(cases)
-    initial = energies(particles, g, len(cases))
+
+    def summarize(batches: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return kernels.summary(particles, g) if kernels is not None else summary(particles, g, batches)
+
+    initial, _, speeds = summarize(len(cases))
     for b in range(len(cases)):
-        history[b].append(initial[b].cpu().numpy())
+        history[b].append(initial[b])
     window = max(1, int(round(settings.early_stop_duration_s / frame_interval_s)))
     recent = [[case.positions.astype(np.float32)] for case in cases]  # the last window + 1 frames
     quiet = np.zeros(len(cases))
@@ -302,43 +368,29 @@ def run_batch(
     )
     steps = [0] * len(cases)
     for frame in range(1, n_frames):
-        speeds = per_realization_max(torch.sqrt(particles.vx**2 + particles.vy**2), particles.batch, len(live))
         substeps = [
-            frame_substeps(settings, grid.h, wave_speed[c], speed, frame_interval_s) for c, speed in zip(live, speeds)
+            frame_substeps(settings, grid.h, wave_speed[c], float(speed), frame_interval_s)
+            for c, speed in zip(live, speeds)
         ]
         dt = [frame_interval_s / n for n in substeps]
-        outside_region = torch.zeros(len(live), dtype=torch.long, device=device)
-        repeated = boundary.repeat(len(live))
-        for k in range(max(substeps)):
-            step_dt = torch.tensor([d if k < n else 0.0 for d, n in zip(dt, substeps)], dtype=dtype, device=device)
-            weights = basis(particles.x, particles.y)
-            if not bool(weights.inside.all()):
-                outside_region.index_add_(0, particles.batch, (~weights.inside).long())
-            substep(
-                particles, weights, basis.n_nodes, repeated, gravity, len(live), step_dt, settings.pic_blend, damping
+        if kernels is not None:
+            outside_region = kernels.advance(particles, substeps, dt)
+        else:
+            outside_region = (
+                _advance_torch(
+                    particles, basis, boundary.repeat(len(live)), gravity, substeps, dt, settings.pic_blend, damping
+                )
+                .cpu()
+                .numpy()
             )
         for c, n in zip(live, substeps):
             steps[c] += n
         now = frame * frame_interval_s
-        energy = energies(particles, g, len(live))
-        state_finite = (
-            torch.isfinite(particles.x)
-            & torch.isfinite(particles.y)
-            & torch.isfinite(particles.vx)
-            & torch.isfinite(particles.vy)
-        )
-        finite = torch.zeros(len(live), dtype=torch.long, device=device).index_add_(
-            0, particles.batch, (~state_finite).long()
-        )
-        positions = torch.stack([particles.x, particles.y], 1).cpu().numpy().astype(np.float32)
-        live_counts = [counts[c] for c in live]
-        split = np.split(positions, np.cumsum(live_counts)[:-1])
-        stress_split = np.split(
-            torch.stack([particles.sxx, particles.syy, particles.szz, particles.txy], 1).cpu().numpy(),
-            np.cumsum(live_counts)[:-1],
-        )
-        going_on = torch.ones(len(live), dtype=torch.bool, device=device)
-        energy_np = energy.cpu().numpy()
+        energy_np, finite, speeds = summarize(len(live))
+        positions, stress = host_state(particles, kernels)
+        boundaries = np.cumsum([counts[c] for c in live])[:-1]
+        split, stress_split = np.split(positions, boundaries), np.split(stress, boundaries)
+        going_on = np.ones(len(live), dtype=bool)
         for slot, case_index in enumerate(live):
             frames[case_index].append(split[slot])
             if keep == "ends" and len(frames[case_index]) > 3:
@@ -369,9 +421,9 @@ def run_batch(
                 results[case_index] = RunResult(np.empty(0), np.empty(0), np.empty(0), stopped_at_s=now)
                 going_on[slot] = False
         if not going_on.all():
-            new_batch = torch.cumsum(going_on.long(), 0) - 1
-            particles = particles.subset(going_on[particles.batch], new_batch)
-            live = [c for slot, c in enumerate(live) if going_on[slot]]
+            keeping = torch.as_tensor(going_on, device=device)
+            particles = particles.subset(keeping[particles.batch], torch.cumsum(keeping.long(), 0) - 1)
+            live, speeds = [c for slot, c in enumerate(live) if going_on[slot]], speeds[going_on]
         if frame % 40 == 0 or not live:
             log.info(
                 "t = %.2f s: %d of %d realizations running, dt = %.2e s (%d steps so far)",

@@ -1,0 +1,94 @@
+"""The compiled kernels (backend numba) against the torch engine: the same step, the same answers to rounding."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from mpm_cases import ELASTIC, polygon_case
+
+from rgns.config import ConfigError, load_config, validate_config
+from rgns.engines.mpm.solver import EngineSettings, run_batch
+
+
+@pytest.fixture(autouse=True)
+def one_thread():
+    torch.set_num_threads(1)
+
+
+def both(cases, duration_s: float, initial_velocity=None, **settings):
+    """The runs of ``cases`` (one batch) by each backend."""
+    return [
+        run_batch(
+            cases,
+            EngineSettings(backend=backend, **settings),
+            duration_s=duration_s,
+            frame_interval_s=0.05,
+            initial_velocity=initial_velocity,
+        )
+        for backend in ("numba", "torch")
+    ]
+
+
+def assert_same_runs(kernels, reference, stress_rtol: float = 1e-12) -> None:
+    """Same steps, status and stored frames; stresses to ``stress_rtol`` of the largest; energies to rounding."""
+    for a, b in zip(kernels, reference):
+        assert (a.steps, a.status, a.stopped_at_s) == (b.steps, b.status, b.stopped_at_s)
+        np.testing.assert_allclose(a.positions, b.positions, rtol=0, atol=1e-5)  # float32 frames: a last bit
+        scale = np.abs(b.final_stress).max()
+        assert np.abs(a.final_stress - b.final_stress).max() <= stress_rtol * scale
+        np.testing.assert_allclose(a.energies, b.energies, rtol=1e-10, atol=1e-9 * np.abs(b.energies).max())
+
+
+def test_a_failing_and_a_standing_slope_batched_agree_on_both_backends(tmp_path):
+    """B-splines, Mohr-Coulomb yielding, early stop, each realization at its own step, 2 s (about 800 steps)."""
+    cases = [
+        polygon_case(
+            tmp_path / f"{phi}", [[0, 0], [8, 0], [4, 3], [0, 3]], 16.0, 4.0, cell_size_m=0.5, friction_deg=phi, index=k
+        )
+        for k, phi in enumerate((15.0, 45.0))
+    ]
+    kernels, reference = both(cases, 2.0, early_stop_duration_s=0.25)
+    assert kernels[0].positions[-1, :, 0].max() > 9.0 and kernels[1].stopped_at_s is not None  # one fails, one stands
+    assert_same_runs(kernels, reference)
+
+
+@pytest.mark.parametrize("pic_blend", [0.0, 0.3])
+def test_a_block_sliding_on_the_friction_floor_agrees_on_both_backends_with_bilinear_cells(tmp_path, pic_blend):
+    """The bilinear basis, the Coulomb floor (kinetic and static branches), FLIP and a PIC blend."""
+    case = polygon_case(
+        tmp_path / "block", [[1, 0], [5, 0], [5, 2], [1, 2]], 20.0, 4.0, cell_size_m=0.5, floor_friction=0.5, **ELASTIC
+    )
+    start = [np.tile([5.0, 0.0], (len(case.positions), 1))]
+    kernels, reference = both([case], 1.5, start, shape_function="linear", early_stop=False, pic_blend=pic_blend)
+    assert_same_runs(kernels, reference)
+
+
+def test_a_damped_column_with_a_tension_cutoff_agrees_on_both_backends(tmp_path):
+    """Cundall damping, the tension cutoff and dilation in the return map, on a cell size that is no power of two."""
+    case = polygon_case(
+        tmp_path / "column",
+        [[0, 0], [3, 0], [3, 6], [0, 6]],
+        15.0,
+        7.5,
+        cell_size_m=0.75,
+        damping_factor=0.05,
+        dilation_deg=10.0,
+        tension_cutoff_pa=500.0,
+    )
+    kernels, reference = both([case], 1.5, early_stop=False)
+    assert_same_runs(kernels, reference)
+
+
+def test_auto_picks_the_kernels_on_the_cpu_in_float64_and_torch_otherwise():
+    assert EngineSettings().kernels and not EngineSettings(backend="torch").kernels
+    assert not EngineSettings(dtype="float32").kernels and not EngineSettings(device="meta").kernels
+    with pytest.raises(ValueError, match="mpm.embedded.backend = 'numba'"):
+        _ = EngineSettings(backend="numba", dtype="float32").kernels
+
+
+def test_the_config_refuses_the_kernels_on_a_gpu_naming_the_key():
+    config = load_config()
+    config["mpm"]["embedded"] |= {"backend": "numba", "device": "cuda"}
+    with pytest.raises(ConfigError, match="'mpm.embedded.backend' = 'numba'.*'cuda'"):
+        validate_config(config)
