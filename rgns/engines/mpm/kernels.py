@@ -144,19 +144,21 @@ def _scatter3(nodes, weighted, vx, vy, mass, momentum_x, momentum_y):
 
 
 @njit(cache=True, inline="always")
-def _scatter2(nodes, fx, fy, count, force_x, force_y):
-    """force[n] += f over one slot's first ``count`` particles in order, as :func:`_scatter3`."""
+def _force_scatter(nodes, gx, gy, weighted, p0, count, sxx, syy, txy, volume, gravity_x, gravity_y, force_x, force_y):
+    """force[n] += −v (σ · ∇w) + w m g over one slot's first ``count`` particles in order, as :func:`_scatter3`."""
     current = -1
     a = b = 0.0
     for q in range(count):
+        p = p0 + q
         n = nodes[q]
         if n != current:
             if current >= 0:
                 force_x[current], force_y[current] = a, b
             current = n
             a, b = force_x[n], force_y[n]
-        a += fx[q]
-        b += fy[q]
+        minus_v = -volume[p]
+        a += minus_v * (sxx[p] * gx[q] + txy[p] * gy[q]) + weighted[q] * gravity_x
+        b += minus_v * (txy[p] * gx[q] + syy[p] * gy[q]) + weighted[q] * gravity_y
     if current >= 0:
         force_x[current], force_y[current] = a, b
 
@@ -298,8 +300,9 @@ def advance_frame(
     gx = np.empty((slots, largest))
     gy = np.empty((slots, largest))
     wm = np.empty((slots, largest))
-    fx = np.empty((slots, largest))
-    fy = np.empty((slots, largest))
+    strain_xx = np.empty(largest)
+    strain_yy = np.empty(largest)
+    strain_xy = np.empty(largest)
     node_mass = np.empty(n_nodes)
     inverse_mass = np.empty(n_nodes)
     node_vx = np.empty(n_nodes)
@@ -349,20 +352,23 @@ def advance_frame(
                 inverse_mass[n] = inverse
                 node_vx[n] = 0.0 if fixed_x[n] else force_x[n] * inverse
                 node_vy[n] = 0.0 if fixed_y[n] else force_y[n] * inverse
-            # stress update and the internal and gravity forces of each slot
+            # strain increments from the nodal velocities (four sums, each over the slots in order)
             for q in range(count):
-                p = p0 + q
                 lxx = 0.0
                 lyy = 0.0
                 lxy = 0.0
                 lyx = 0.0
-                for s in range(slots):  # four sums, each over the slots in order
+                for s in range(slots):
                     n = nodes[s, q]
                     lxx += node_vx[n] * gx[s, q]
                     lyy += node_vy[n] * gy[s, q]
                     lxy += node_vx[n] * gy[s, q]
                     lyx += node_vy[n] * gx[s, q]
-                dxx, dyy, dxy = dt * lxx, dt * lyy, dt * (lxy + lyx)
+                strain_xx[q], strain_yy[q], strain_xy[q] = dt * lxx, dt * lyy, dt * (lxy + lyx)
+            # the stress update and the new volume
+            for q in range(count):
+                p = p0 + q
+                dxx, dyy = strain_xx[q], strain_yy[q]
                 sxx[p], syy[p], szz[p], txy[p] = _stress_update(
                     sxx[p],
                     syy[p],
@@ -370,7 +376,7 @@ def advance_frame(
                     txy[p],
                     dxx,
                     dyy,
-                    dxy,
+                    strain_xy[q],
                     shear_modulus[p],
                     lame_lambda[p],
                     k[p],
@@ -379,15 +385,26 @@ def advance_frame(
                     tension_cutoff[p],
                 )
                 volume[p] = volume[p] * (1.0 + dxx + dyy)
-                minus_v = -volume[p]
-                for s in range(slots):
-                    fx[s, q] = minus_v * (sxx[p] * gx[s, q] + txy[p] * gy[s, q]) + wm[s, q] * gravity_x
-                    fy[s, q] = minus_v * (txy[p] * gx[s, q] + syy[p] * gy[s, q]) + wm[s, q] * gravity_y
-            # grid update
+            # grid update: internal and gravity forces, made and summed slot by slot
             force_x[:] = 0.0
             force_y[:] = 0.0
             for s in range(slots):
-                _scatter2(nodes[s], fx[s], fy[s], count, force_x, force_y)
+                _force_scatter(
+                    nodes[s],
+                    gx[s],
+                    gy[s],
+                    wm[s],
+                    p0,
+                    count,
+                    sxx,
+                    syy,
+                    txy,
+                    volume,
+                    gravity_x,
+                    gravity_y,
+                    force_x,
+                    force_y,
+                )
             for n in range(n_nodes):
                 inverse = inverse_mass[n]
                 f_x, f_y = force_x[n], force_y[n]
