@@ -78,16 +78,15 @@ def test_the_pages_tail_caution_quotes_the_coverage_run_it_cites():
     assert all(figure in TAIL_COVERAGE for figure in quoted), (quoted, TAIL_COVERAGE)
 
 
-def test_a_runs_time_without_its_pairs_is_its_other_jobs_share_of_15_min_on_2_cores():
-    """The README says what a 15 min run on 2 cores leaves the pairs: the other jobs' summed time against 30
-    core-minutes."""
+def test_a_run_says_where_its_time_went_and_whether_it_met_15_min_on_2_cores():
+    """The README says the jobs' summed time, the largest rules first, and the run's wall time against 15 min."""
     rules = {
-        "mc_chunk [paired]": {"jobs": 8, "job_seconds": 2400.0},
-        "mpm_run": {"jobs": 8, "job_seconds": 600.0},
-        "mc_chunk [paired_coarse]": {"jobs": 8, "job_seconds": 500.0},
-        "mc_collect [paired]": {"jobs": 1, "job_seconds": 5.0},
-        "mc_chunk [realizations]": {"jobs": 10, "job_seconds": 300.0},
+        "mc_chunk [paired]": {"jobs": 8, "job_seconds": 300.0},
+        "mpm_run": {"jobs": 8, "job_seconds": 60.0},
+        "mc_chunk [realizations]": {"jobs": 10, "job_seconds": 240.0},
     }
-    lines = runs.time_lines({"rules": rules, "cases": {"mine": {}}}, "mine")
-    assert lines[-1].startswith("Without the jobs of the pairs' MPM routes ([paired], [paired_coarse]) it took 15 min")
-    assert "50% of the 30 core-minutes" in lines[-1]
+    within = runs.time_lines({"rules": rules, "seconds": 600.0, "cases": {"mine": {}}}, "mine")
+    assert within[0].startswith("Its jobs' summed wall time, 10 min 00 s on 2 cores, went to mc_chunk [paired] 5 min")
+    assert within[-1].endswith("**met**.")
+    over = runs.time_lines({"rules": rules, "seconds": 1000.0, "cases": {"mine": {}}}, "mine")
+    assert over[-1].endswith("**missed** by 1 min 40 s.")

@@ -123,8 +123,8 @@ def _spline_row(s, first, wy, dy, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q,
 
 
 @njit(cache=True, inline="always")
-def _scatter3(nodes, weighted, vx, vy, mass, momentum_x, momentum_y):
-    """mass[n] += weighted, momentum[n] += weighted · v over one slot's particles in order. A node's running sums
+def _scatter3(nodes, w, particle_mass, vx, vy, mass, momentum_x, momentum_y):
+    """mass[n] += w m, momentum[n] += w m v over one slot's particles in order. A node's running sums
     stay in registers while consecutive particles share it: the same additions in the same order, no store and
     reload between them."""
     current = -1
@@ -136,15 +136,16 @@ def _scatter3(nodes, weighted, vx, vy, mass, momentum_x, momentum_y):
                 mass[current], momentum_x[current], momentum_y[current] = m, mx, my
             current = n
             m, mx, my = mass[n], momentum_x[n], momentum_y[n]
-        m += weighted[q]
-        mx += weighted[q] * vx[q]
-        my += weighted[q] * vy[q]
+        weighted = w[q] * particle_mass[q]
+        m += weighted
+        mx += weighted * vx[q]
+        my += weighted * vy[q]
     if current >= 0:
         mass[current], momentum_x[current], momentum_y[current] = m, mx, my
 
 
 @njit(cache=True, inline="always")
-def _force_scatter(nodes, gx, gy, weighted, p0, count, sxx, syy, txy, volume, gravity_x, gravity_y, force_x, force_y):
+def _force_scatter(nodes, gx, gy, w, mass, p0, count, sxx, syy, txy, volume, gravity_x, gravity_y, force_x, force_y):
     """force[n] += −v (σ · ∇w) + w m g over one slot's first ``count`` particles in order, as :func:`_scatter3`."""
     current = -1
     a = b = 0.0
@@ -157,8 +158,8 @@ def _force_scatter(nodes, gx, gy, weighted, p0, count, sxx, syy, txy, volume, gr
             current = n
             a, b = force_x[n], force_y[n]
         minus_v = -volume[p]
-        a += minus_v * (sxx[p] * gx[q] + txy[p] * gy[q]) + weighted[q] * gravity_x
-        b += minus_v * (txy[p] * gx[q] + syy[p] * gy[q]) + weighted[q] * gravity_y
+        a += minus_v * (sxx[p] * gx[q] + txy[p] * gy[q]) + w[q] * mass[p] * gravity_x
+        b += minus_v * (txy[p] * gx[q] + syy[p] * gy[q]) + w[q] * mass[p] * gravity_y
     if current >= 0:
         force_x[current], force_y[current] = a, b
 
@@ -295,11 +296,10 @@ def advance_frame(
     largest = 0
     for b in range(len(substeps)):
         largest = max(largest, starts[b + 1] - starts[b])
-    nodes = np.empty((slots, largest), dtype=np.int64)
+    nodes = np.empty((slots, largest), dtype=np.int32)
     w = np.empty((slots, largest))
     gx = np.empty((slots, largest))
     gy = np.empty((slots, largest))
-    wm = np.empty((slots, largest))
     strain_xx = np.empty(largest)
     strain_yy = np.empty(largest)
     strain_xy = np.empty(largest)
@@ -344,9 +344,7 @@ def advance_frame(
             force_x[:] = 0.0  # momentum first, forces later
             force_y[:] = 0.0
             for s in range(slots):  # each array summed slot by slot, particle by particle
-                for q in range(count):
-                    wm[s, q] = w[s, q] * mass[p0 + q]
-                _scatter3(nodes[s], wm[s], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y)
+                _scatter3(nodes[s], w[s], mass[p0:p1], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y)
             for n in range(n_nodes):
                 inverse = 1.0 / node_mass[n] if node_mass[n] > MASS_TOLERANCE else 0.0
                 inverse_mass[n] = inverse
@@ -393,7 +391,8 @@ def advance_frame(
                     nodes[s],
                     gx[s],
                     gy[s],
-                    wm[s],
+                    w[s],
+                    mass,
                     p0,
                     count,
                     sxx,

@@ -56,7 +56,6 @@ from rgns.report.documents.gns import gns_handover, gns_jitter, gns_recipe, gns_
 from rgns.report.documents.runs import (
     default_run,
     influence_growth,
-    machine_pace,
     pair_coverage,
     site_run,
     strata_spread,
@@ -88,7 +87,6 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "gns-shipped": gns_shipped,
     "default-run": default_run,
     "site-run": site_run,
-    "machine-pace": machine_pace,
     "pair-coverage": pair_coverage,
     "strata-spread": strata_spread,
     "influence-growth": influence_growth,

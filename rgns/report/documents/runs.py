@@ -12,6 +12,7 @@ from rgns.report.documents.sources import result
 BEFORE_SECONDS = 23 * 60 + 57
 BEFORE_HALF_WIDTH = {"0.1": 2.1, "0.01": 3.3}  # the whole interval's
 BEFORE_AT_ORDER = {"0.1": 1.3, "0.01": 2.4}  # its sampling part at the order's value
+TARGET_SECONDS = 15 * 60  # the README's: the default hazard_map from a fresh clone on 2 cores
 
 
 def run_lines(record: dict[str, Any], case: str) -> list[str]:
@@ -61,20 +62,8 @@ def run_lines(record: dict[str, Any], case: str) -> list[str]:
 
 def time_lines(record: dict[str, Any], case: str) -> list[str]:
     """Where a run's time went (per rule and route, from Snakemake's log; a run recorded before fresh_run.py took
-    it: nothing) and the machine's pace against the cost table's one-thread 0.5 m MPM of the same case
-    (mesh_levels.json)."""
-    head = record["cases"][case]
+    it: nothing), and the run against the README's target, 15 min on 2 cores."""
     lines = []
-    table_cases = result("mesh_levels.json")
-    if "cost_s" in head and case in table_cases:  # a case the cost table ran (a site's own geometry costs its own)
-        table = table_cases[case]["seconds"]["0.5"]
-        slower = head["cost_s"]["high_s"] / table
-        lines.append(
-            f"Its 0.5 m MPM ran {slower:.1f}× slower than the cost table's one thread ({table:.1f} s per "
-            f"realization, `benchmarks/results/mesh_levels.json`); the run's time divided by that ratio, "
-            f"{minutes(record['seconds'] / slower)}, estimates it at the cost table's pace (an estimate, not a "
-            "measurement)."
-        )
     rules = record.get("rules")
     if rules:
         total = sum(entry["job_seconds"] for entry in rules.values())
@@ -88,14 +77,12 @@ def time_lines(record: dict[str, Any], case: str) -> list[str]:
             + (", the rest less" if len(rules) > len(largest) else "")
             + " (per rule and route, from Snakemake's log)."
         )
-        pairs = {name: entry for name, entry in rules.items() if "[paired" in name}
-        if pairs:
-            rest = total - sum(entry["job_seconds"] for entry in pairs.values())
-            routes = sorted({name[name.index("[") :] for name in pairs})
-            lines.append(
-                f"Without the jobs of the pairs' MPM routes ({', '.join(routes)}) it took {minutes(rest)} of job time: "
-                f"{rest / (15 * 60 * 2):.0%} of the 30 core-minutes that 15 min on 2 cores holds, at this run's pace."
-            )
+    if "seconds" in record:
+        within = record["seconds"] <= TARGET_SECONDS
+        lines.append(
+            f"The target, {minutes(TARGET_SECONDS)} on 2 cores from a fresh clone: "
+            + ("**met**." if within else f"**missed** by {minutes(record['seconds'] - TARGET_SECONDS)}.")
+        )
     return lines
 
 
@@ -135,29 +122,6 @@ def default_run() -> str:
         f"{BEFORE_AT_ORDER['0.1']} and {BEFORE_AT_ORDER['0.01']} m)."
     )
     return " ".join(lines)
-
-
-def machine_pace() -> str:
-    """README: this machine's pace against the cost table's, the same realization run by each named commit's own
-    code (machine_pace.json), and so whether a slow timed run is the machine's or the code's."""
-    record = result("machine_pace.json")
-    table = record["cost_table"]
-    runs = record["runs"]
-    same = all(run["runout_m"] == table["runout_m"] for run in runs)
-    timed = "; ".join(
-        f"{run['seconds']:.1f} s with the code of {run['code']} ({run['date']}, load {run['load_before']:.2f} before)"
-        for run in runs
-    )
-    return (
-        f"Case 1's realization 0 at 0.5 m, one thread, took {table['seconds']:.1f} s in the cost table's run "
-        f"({table['date']}, committed in {table['commit']}) and takes {timed} (each commit's own code in a "
-        f"worktree: `{record['command']}`), "
-        + (
-            f"the same runout to the last digit ({table['runout_m']!r} m): the machine slowed, not the code."
-            if same
-            else "with another runout: the code changed what it computes."
-        )
-    )
 
 
 def site_run() -> str:

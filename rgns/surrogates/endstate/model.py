@@ -56,7 +56,10 @@ class EndStateModel(torch.nn.Module):
         if not initials:
             return []
         images = torch.from_numpy(np.stack([self.inputs(p, f) for p, f in zip(initials, frictions)])).to(device)
-        out = self(images).cpu().numpy() * self.normalization.displacement_scale_m
+        # channels last: oneDNN's own layout, a fifth faster on the CPU (benchmarks/bench_endstate_layout.py)
+        self.network.to(memory_format=torch.channels_last)
+        out = self(images.contiguous(memory_format=torch.channels_last)).cpu().numpy()
+        out = out * self.normalization.displacement_scale_m
         return [
             (np.asarray(p, dtype=float) + self.lattice.gather(image, p)).astype(np.float32)
             for p, image in zip(initials, out)
