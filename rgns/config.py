@@ -137,6 +137,7 @@ def as_range(value: float | list[float]) -> tuple[float, float]:
 
 def consistency_errors(config: dict[str, Any]) -> list[str]:
     """Cross-key errors that the schema cannot express, one readable line each."""
+    from rgns.engines.mpm.backend import uses_kernels  # local, as geometry: it imports nothing from here
     from rgns.scene.geometry import polygon_problems  # local: geometry imports nothing from here
 
     errors: list[str] = []
@@ -196,12 +197,10 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
             f"{config['gns']['model']!r} trains on (gns.model: shipped needs none)"
         )
     embedded = config["mpm"]["embedded"]
-    if embedded["backend"] == "numba" and (embedded["device"] != "cpu" or embedded["dtype"] != "float64"):
-        errors.append(
-            f"config key 'mpm.embedded.backend' = 'numba': the compiled kernels run on the CPU in float64, not "
-            f"mpm.embedded.device = {embedded['device']!r} in mpm.embedded.dtype = {embedded['dtype']!r} "
-            f"(use backend torch, or auto)"
-        )
+    try:
+        uses_kernels(embedded["backend"], embedded["device"], embedded["dtype"])
+    except ValueError as error:
+        errors.append(f"config key {error}")
     families = config["geometry"]["families"]
     for set_name, groups in config["sets"].items():
         for g, group in enumerate(groups):

@@ -5,6 +5,7 @@ from dataclasses import asdict
 from pathlib import Path
 from types import SimpleNamespace
 
+from rgns.engines.mpm.backend import uses_kernels
 from rgns.montecarlo.routes import PAIRED, monte_carlo_routes
 from rgns.scene.fields import FIELD_KEYS
 from rgns.scene.geometry import DRAW_KEYS
@@ -99,6 +100,13 @@ def chunk_members(set_name, chunk):
     """Realization ids of one chunk."""
     size = config["mpm"]["chunk_size"]
     return set_ids(set_name)[int(chunk) * size:(int(chunk) + 1) * size]
+
+
+def kernels_ready(wildcards):
+    """The compiled MPM kernels, for a job that may run the embedded engine on them (mpm.embedded.backend)."""
+    embedded = config["mpm"]["embedded"]
+    kernels = uses_kernels(embedded["backend"], embedded["device"], embedded["dtype"])
+    return ["results/mpm/kernels.txt"] if config["mpm"]["engine"] == "embedded" and kernels else []
 
 
 def chunk_cases(wildcards):

@@ -9,6 +9,7 @@ rule mc_chunk:
         model=route_model,
         gate=route_gate,
         plan=route_plan,
+        kernels=kernels_ready,
     output:
         "results/mc/{case}/{route}/chunk_{chunk}.csv",
     params:

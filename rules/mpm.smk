@@ -15,10 +15,23 @@ rule mpm_input:
         "../workflow/scripts/mpm_input.py"
 
 
+rule mpm_kernels:
+    """Compile the embedded engine's CPU kernels once (numba's cache), before the MPM jobs load them."""
+    output:
+        "results/mpm/kernels.txt",
+    log:
+        "logs/mpm_kernels.log",
+    conda:
+        "../envs/rgns.yaml"
+    script:
+        "../workflow/scripts/mpm_kernels.py"
+
+
 rule mpm_run:
     """Run a chunk of cases through the configured engine (mpm.engine) into trajectory files."""
     input:
         cases=chunk_cases,
+        kernels=kernels_ready,
     output:
         directory("results/mpm/{set}/chunk_{chunk}"),
     params:

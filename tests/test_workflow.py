@@ -59,6 +59,7 @@ def test_dry_run_of_the_default_config_runs_only_the_test_cases_with_the_shipped
         "multifidelity": mc_cases,
         "report": 1,
         "hazard_map": 1,
+        "mpm_kernels": 1,  # the MPM's CPU kernels compiled once, before its jobs
         # the correction's control variate: the shipped tuned surrogate
         "shipped_tuned_endstate": 1,
     }
@@ -86,6 +87,7 @@ def test_a_plain_mpm_monte_carlo_at_half_metre_cells_needs_no_learned_simulator(
     config["montecarlo"]["fidelity"]["paired"] = 0
     jobs = scheduled(snakemake(tmp_path, "-n", "hazard_map", config=write_config(tmp_path / "mpm.yaml", config)))
     assert jobs == {
+        "mpm_kernels": 1,  # compiled once before the MPM's jobs
         "mc_chunk": 3,
         "mc_collect": 2,
         "exceedance": 1,

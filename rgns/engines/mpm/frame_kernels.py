@@ -9,6 +9,7 @@ kernel at 1 m). numba is imported on first use, so a run on the torch backend ne
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,38 @@ from rgns.engines.mpm.step import Boundary, Particles
 
 STATE = ("x", "y", "vx", "vy", "mass", "volume", "sxx", "syy", "szz", "txy")
 CONSTANTS = ("shear_modulus", "lame_lambda", "k", "m", "sigma_c", "tension_cutoff")
+
+
+def compile_kernels() -> float:
+    """Compile (or load from the cache) both kernels for the types the solver hands them; returns the seconds.
+    A workflow runs this once before its MPM jobs, so that two jobs side by side do not both compile."""
+    from rgns.engines.mpm import kernels as compiled
+
+    kernels: Any = compiled  # numba dispatchers: their arguments are typed at the call
+    began = time.perf_counter()
+    empty, none = np.zeros(0), np.zeros(0, dtype=np.int64)
+    views = [empty.copy() for _ in STATE + CONSTANTS]
+    grid = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 2.0, 2.0, 2.0, 2.0, 1.0])
+    flags = np.zeros(0, dtype=bool)
+    kernels.advance_frame(
+        *views,
+        np.zeros(1, dtype=np.int64),
+        none,
+        empty,
+        grid,
+        True,
+        flags,
+        flags,
+        flags,
+        empty,
+        0.0,
+        -9.81,
+        0.0,
+        0.0,
+        none,
+    )
+    kernels.frame_summary(*views[:12], np.zeros(1, dtype=np.int64), 9.81, np.zeros((0, 3)), none, empty)
+    return time.perf_counter() - began
 
 
 class FrameKernels:

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from rgns.engines.mpm.backend import uses_kernels
 from rgns.engines.mpm.frame_kernels import FrameKernels
 from rgns.engines.mpm.mohr_coulomb import MohrCoulomb
 from rgns.engines.mpm.shape import BASES, Basis, Region, RegularGrid
@@ -59,13 +60,7 @@ class EngineSettings:
     @property
     def kernels(self) -> bool:
         """Whether the compiled CPU kernels run the steps (backend numba, or auto on the CPU in float64)."""
-        cpu_float64 = torch.device(self.device).type == "cpu" and self.dtype == "float64"
-        if self.backend == "numba" and not cpu_float64:
-            raise ValueError(
-                f"mpm.embedded.backend = 'numba' runs on the CPU in float64, not device {self.device!r} in "
-                f"{self.dtype}: use backend 'torch' (or 'auto')"
-            )
-        return self.backend == "numba" or (self.backend == "auto" and cpu_float64)
+        return uses_kernels(self.backend, self.device, self.dtype)
 
 
 @dataclass
