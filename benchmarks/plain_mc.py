@@ -85,7 +85,8 @@ def report(against: Path | None) -> dict:
     chunks = [pd.read_csv(path) for path in sorted(CHUNKS.glob("chunk_*.csv"))]
     table = pd.concat(chunks, ignore_index=True)
     runout = table["runout_m"].to_numpy(dtype=float)
-    runs = json.loads((CHUNKS / "runs.json").read_text())
+    runs_file = CHUNKS / "runs.json"  # written when a run ends; a run still going (or killed) is not in it yet
+    runs = json.loads(runs_file.read_text()) if runs_file.exists() else []
     record: dict = {
         "realizations": len(table),
         "statuses": table["status"].value_counts().to_dict(),
@@ -114,8 +115,9 @@ def markdown(record: dict) -> str:
         "# A plain MPM Monte Carlo of case 1 at 1 m",
         "",
         f"{record['realizations']:,} realizations by the MPM at 1 m ({record['statuses']}), "
-        f"{record['job_seconds'] / 3600:.2f} h of job time, {record['wall_seconds'] / 3600:.2f} h wall "
-        f"(`python benchmarks/plain_mc.py --run`).",
+        f"{record['job_seconds'] / 3600:.2f} h of job time (one thread each, two processes side by side), "
+        + (f"{record['wall_seconds'] / 3600:.2f} h wall" if record["runs"] else "a run still going: wall time not yet")
+        + " (`python benchmarks/plain_mc.py --run`; partial until 10,000).",
         "",
         f"Mean runout {mean[0]:.2f} m [{mean[1]:.2f}, {mean[2]:.2f}]; R exceeded with P "
         + " / ".join(f"{p}: {v[0]:.2f} m [{v[1]:.2f}, {v[2]:.2f}]" for p, v in record["runout_exceeded_m"].items())
