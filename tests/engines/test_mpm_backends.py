@@ -92,3 +92,15 @@ def test_the_config_refuses_the_kernels_on_a_gpu_naming_the_key():
     config["mpm"]["embedded"] |= {"backend": "numba", "device": "cuda"}
     with pytest.raises(ConfigError, match="config key mpm.embedded.backend = 'numba'.*'cuda'"):
         validate_config(config)
+
+
+def test_the_compile_rule_compiles_exactly_what_a_run_calls(tmp_path):
+    """compile_kernels (rule mpm_kernels) leaves a run nothing to compile: a run adds no signature of its own."""
+    from rgns.engines.mpm import kernels
+    from rgns.engines.mpm.frame_kernels import compile_kernels
+
+    compile_kernels()
+    compiled = (set(kernels.advance_frame.signatures), set(kernels.frame_summary.signatures))
+    case = polygon_case(tmp_path / "slope", [[0, 0], [8, 0], [4, 3], [0, 3]], 16.0, 4.0, cell_size_m=1.0)
+    run_batch([case], EngineSettings(), duration_s=0.1)
+    assert (set(kernels.advance_frame.signatures), set(kernels.frame_summary.signatures)) == compiled

@@ -15,43 +15,12 @@ from typing import Any
 import numpy as np
 import torch
 
-from rgns.engines.mpm.shape import Basis, ClampedBSplineBasis
+from rgns.engines.mpm.shape import Basis, ClampedBSplineBasis, Region, RegularGrid
 from rgns.engines.mpm.step import Boundary, Particles
 
 STATE = ("x", "y", "vx", "vy", "mass", "volume", "sxx", "syy", "szz", "txy")
 CONSTANTS = ("shear_modulus", "lame_lambda", "k", "m", "sigma_c", "tension_cutoff")
-
-
-def compile_kernels() -> float:
-    """Compile (or load from the cache) both kernels for the types the solver hands them; returns the seconds.
-    A workflow runs this once before its MPM jobs, so that two jobs side by side do not both compile."""
-    from rgns.engines.mpm import kernels as compiled
-
-    kernels: Any = compiled  # numba dispatchers: their arguments are typed at the call
-    began = time.perf_counter()
-    empty, none = np.zeros(0), np.zeros(0, dtype=np.int64)
-    views = [empty.copy() for _ in STATE + CONSTANTS]
-    grid = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 2.0, 2.0, 2.0, 2.0, 1.0])
-    flags = np.zeros(0, dtype=bool)
-    kernels.advance_frame(
-        *views,
-        np.zeros(1, dtype=np.int64),
-        none,
-        empty,
-        grid,
-        True,
-        flags,
-        flags,
-        flags,
-        empty,
-        0.0,
-        -9.81,
-        0.0,
-        0.0,
-        none,
-    )
-    kernels.frame_summary(*views[:12], np.zeros(1, dtype=np.int64), 9.81, np.zeros((0, 3)), none, empty)
-    return time.perf_counter() - began
+SUMMARY = STATE + CONSTANTS[:2]  # what frame_summary reads, in its order
 
 
 class FrameKernels:
@@ -90,11 +59,19 @@ class FrameKernels:
 
     def advance(self, particles: Particles, substeps: list[int], dt: list[float]) -> np.ndarray:
         """Realization b takes substeps[b] steps of dt[b]; returns its particle steps out of the region [B]."""
-        views = self.views(particles)
+        return self._advance(self.views(particles), self._starts, substeps, dt)
+
+    def summary(self, particles: Particles, gravity: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per realization: kinetic, potential and elastic energy [B, 3], non-finite particles [B], top speed [B]."""
+        return self._summary(self.views(particles), self._starts, gravity)
+
+    def _advance(
+        self, views: tuple[np.ndarray, ...], starts: np.ndarray, substeps: list[int], dt: list[float]
+    ) -> np.ndarray:
         outside = np.zeros(len(substeps), dtype=np.int64)
         self._kernels.advance_frame(
             *views,
-            self._starts,
+            starts,
             np.asarray(substeps, dtype=np.int64),
             np.asarray(dt, dtype=np.float64),
             self.grid,
@@ -107,10 +84,27 @@ class FrameKernels:
         )
         return outside
 
-    def summary(self, particles: Particles, gravity: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per realization: kinetic, potential and elastic energy [B, 3], non-finite particles [B], top speed [B]."""
-        views = self.views(particles)
-        batches = len(self._starts) - 1
+    def _summary(
+        self, views: tuple[np.ndarray, ...], starts: np.ndarray, gravity: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        batches = len(starts) - 1
         energy, non_finite, speed = np.zeros((batches, 3)), np.zeros(batches, dtype=np.int64), np.zeros(batches)
-        self._kernels.frame_summary(*views[:12], self._starts, gravity, energy, non_finite, speed)
+        self._kernels.frame_summary(*views[: len(SUMMARY)], starts, gravity, energy, non_finite, speed)
         return energy, non_finite, speed
+
+
+def compile_kernels() -> float:
+    """Compile (or load from the cache) both kernels, through the calls a run makes, on an empty batch; returns the
+    seconds. A workflow runs this once before its MPM jobs, so that two jobs side by side do not both compile."""
+    began = time.perf_counter()
+    grid = RegularGrid((0.0, 0.0), 1.0, (2, 2))
+    basis = ClampedBSplineBasis(grid, Region.whole(grid))
+    free = torch.zeros(basis.n_nodes, dtype=torch.bool)
+    frames = FrameKernels(
+        basis, Boundary(free, free, free, torch.zeros(basis.n_nodes, dtype=torch.float64)), (0.0, -9.81), 0.0, 0.0
+    )
+    views = tuple(np.zeros(0) for _ in STATE + CONSTANTS)
+    starts = np.zeros(1, dtype=np.int64)
+    frames._advance(views, starts, [], [])
+    frames._summary(views, starts, 9.81)
+    return time.perf_counter() - began

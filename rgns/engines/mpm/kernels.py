@@ -63,10 +63,11 @@ def _finite_or_zero(a: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _weights(
-    x, y, p0, p1, origin_x, origin_y, h, inverse_h, lower_x, lower_y, nx, ny, mesh_nx, mesh_ny, spline, nodes, w, gx, gy
-):
-    """Slot ids and weights [K, P] of particles p0..p1 (shape.py's bases); returns how many lie outside the region."""
+def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy):
+    """Slot ids and weights [K, P] of particles p0..p1 (shape.py's bases; ``grid`` as :func:`advance_frame`'s);
+    returns how many lie outside the region."""
+    origin_x, origin_y, h, lower_x, lower_y = grid[0], grid[1], grid[2], grid[3], grid[4]
+    nx, ny, mesh_nx, mesh_ny, inverse_h = int(grid[5]), int(grid[6]), int(grid[7]), int(grid[8]), grid[9]
     outside = 0
     for p in range(p0, p1):
         q = p - p0
@@ -287,10 +288,6 @@ def advance_frame(
     clamped quadratic B-spline (``spline``) or the bilinear cell; ``fixed_x`` … ``friction`` are the
     constraints of one realization's DOFs. ``outside[b]`` counts particle steps out of the region.
     """
-    origin_x, origin_y, h = grid[0], grid[1], grid[2]
-    lower_x, lower_y = grid[3], grid[4]
-    nx, ny, mesh_nx, mesh_ny = int(grid[5]), int(grid[6]), int(grid[7]), int(grid[8])
-    inverse_h = grid[9]
     n_nodes = fixed_x.shape[0]
     slots = 9 if spline else 4
     largest = 0
@@ -318,27 +315,7 @@ def advance_frame(
         count = p1 - p0
         dt = dts[b]
         for _ in range(substeps[b]):
-            outside[b] += _weights(
-                x,
-                y,
-                p0,
-                p1,
-                origin_x,
-                origin_y,
-                h,
-                inverse_h,
-                lower_x,
-                lower_y,
-                nx,
-                ny,
-                mesh_nx,
-                mesh_ny,
-                spline,
-                nodes,
-                w,
-                gx,
-                gy,
-            )
+            outside[b] += _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy)
             # p2g: nodal mass and momentum, slot by slot as torch's scatter_add_
             node_mass[:] = 0.0
             force_x[:] = 0.0  # momentum first, forces later
