@@ -17,9 +17,11 @@ TINY_CONFIG = REPO / "tests" / "data" / "tiny.yaml"
 # all (they change it in place, so two workers cannot share one; xdist's own --dist loadgroup cannot group them
 # under pytest 9, whose node ids it can no longer suffix). That unit first, then the other files that took minutes
 # (measured with --durations on 2 cores), so that neither worker is left running a long one alone at the end;
-# every other test keeps its place after them.
-BUILT_USERS = ("tests/test_workflow.py", "tests/test_faults.py", "tests/scene/test_site.py", "tests/test_slurm.py")
+# every other test keeps its place after them. The SLURM run leads them: most of its minutes are the cluster's
+# polling and job starts, which the other worker's computing fills.
+BUILT_USERS = ("tests/test_workflow.py", "tests/test_faults.py", "tests/scene/test_site.py")
 LONGEST_FIRST = (
+    "tests/test_slurm.py",
     "tests/engines/test_mpm_physics.py",
     "tests/fidelity/test_mesh_extrapolation.py",
     "tests/surrogates/test_endstate_general.py",
