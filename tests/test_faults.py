@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 import torch
-from workflow_helpers import scheduled, snakemake, snakemake_command, write_config
+from workflow_helpers import scheduled, snakemake, snakemake_command, snakemake_environment, write_config
 
 pytestmark = pytest.mark.workflow
 
@@ -46,6 +46,7 @@ def start(workdir: Path, *args: str, config: Path, log: Path) -> subprocess.Pope
             stdout=out,
             stderr=subprocess.STDOUT,
             start_new_session=True,
+            env=snakemake_environment(),
         )
 
 

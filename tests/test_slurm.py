@@ -52,7 +52,9 @@ def test_the_tiny_workflow_runs_to_the_report_through_slurm_with_the_profile(clu
     assert profile["executor"] == "slurm" and "prepare=100" in profile["group-components"]
     workdir = tmp_path / "run"
     workdir.mkdir()
-    result = snakemake(workdir, "hazard_map", "--profile", str(tmp_path / "profile"), config=TINY_CONFIG, timeout=1200)
+    result = snakemake(
+        workdir, "hazard_map", "--profile", str(tmp_path / "profile"), config=TINY_CONFIG, timeout=1200, cluster=True
+    )
     output = result.stdout + result.stderr
     assert result.returncode == 0, output[-5000:]
     assert (workdir / "results" / "report" / "report.html").exists()

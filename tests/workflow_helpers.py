@@ -13,6 +13,19 @@ from pathlib import Path
 import yaml
 
 REPO = Path(__file__).resolve().parent.parent
+# The SLURM executor plugin (installed with the test extra) runs `scontrol show config` when snakemake starts. With
+# SLURM's client installed and no controller up (CI, and here outside tests/test_slurm.py) that call waits ~9 s for
+# the controller on every start, dry runs included. Runs that use no cluster find an scontrol that says at once that
+# there is none; the SLURM test runs with the real one.
+NO_CLUSTER = REPO / "tests" / "no_cluster"
+
+
+def snakemake_environment(cluster: bool = False) -> dict[str, str]:
+    """The environment of a snakemake run: this one, with :data:`NO_CLUSTER` first on the PATH unless ``cluster``."""
+    environment = dict(os.environ)
+    if not cluster:
+        environment["PATH"] = f"{NO_CLUSTER}{os.pathsep}{environment.get('PATH', '')}"
+    return environment
 
 
 def snakemake_command(workdir: Path, *args: str, config: Path | None = None) -> list[str]:
@@ -30,12 +43,20 @@ def snakemake_command(workdir: Path, *args: str, config: Path | None = None) -> 
     return command + ["--configfile", str(config)] if config is not None else command
 
 
-def snakemake(workdir: Path, *args: str, config: Path | None = None, timeout: int = 900) -> subprocess.CompletedProcess:
-    """``snakemake`` on the repository's Snakefile in ``workdir`` (targets go in ``args``)."""
+def snakemake(
+    workdir: Path, *args: str, config: Path | None = None, timeout: int = 900, cluster: bool = False
+) -> subprocess.CompletedProcess:
+    """``snakemake`` on the repository's Snakefile in ``workdir`` (targets go in ``args``); ``cluster``: with the
+    machine's own SLURM client (:func:`snakemake_environment`)."""
     command = snakemake_command(workdir, *args, config=config)
     # its own process group, so a timeout kills the jobs it started too, not only snakemake
     process = subprocess.Popen(
-        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        env=snakemake_environment(cluster),
     )
     try:
         stdout, stderr = process.communicate(timeout=timeout)
