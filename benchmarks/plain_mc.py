@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -98,6 +99,8 @@ def report(against: Path | None) -> dict:
     runs_file = CHUNKS / "runs.json"  # each run's wall time up to its last finished chunk
     runs = json.loads(runs_file.read_text()) if runs_file.exists() else []
     record: dict = {
+        "command": "python benchmarks/plain_mc.py --run --realizations 10000 --workers 2, "
+        "then python benchmarks/plain_mc.py --against <run> (a default run: benchmarks/fresh_run.py --keep <run>)",
         "realizations": len(table),
         "statuses": table["status"].value_counts().to_dict(),
         "job_seconds": float(sum(chunk["chunk_seconds"].iloc[0] for chunk in chunks)),
@@ -131,6 +134,9 @@ def default_at_1m(run: Path) -> dict:
     converged = best["converged"]["means"]["runout_m"]
     return {
         "run": str(run),
+        "run_commit": subprocess.run(
+            ["git", "-C", str(run), "rev-parse", "--short=10", "HEAD"], capture_output=True, text=True
+        ).stdout.strip(),
         "n_paired": len(high),
         "mean_runout_m": [float(mean.estimate[0]), float(mean.lower[0]), float(mean.upper[0])],
         "runout_exceeded_m": {str(p): [distance_at(d_m, band, p) for band in bands] for p in PROBABILITIES},
@@ -158,7 +164,7 @@ def markdown(record: dict) -> str:
         mean, distances = d["mean_runout_m"], d["runout_exceeded_m"]
         lines += [
             "",
-            f"The default run's answer at the same mesh (`{d['run']}`: its {d['n_paired']} pairs at 1 m corrected with "
+            f"The default run's answer at the same mesh (a fresh clone at {d['run_commit']}: its {d['n_paired']} pairs at 1 m corrected with "
             "its cheap route over 10,000, rule multifidelity's estimators): "
             f"mean runout {mean[0]:.2f} m [{mean[1]:.2f}, {mean[2]:.2f}]; R exceeded with P "
             + " / ".join(f"{p}: {v[0]:.2f} m [{v[1]:.2f}, {v[2]:.2f}]" for p, v in distances.items())

@@ -1,4 +1,5 @@
-"""docs/benchmarks.md's current rows that are not a study of their own: random fields, scenes, mesh levels."""
+"""docs/benchmarks.md's current rows that are not a study of their own: random fields, scenes, mesh levels, the
+MPM's backends, the plain MPM Monte Carlo."""
 
 from __future__ import annotations
 
@@ -110,5 +111,65 @@ def bench_current() -> str:
             scenes_row(),
             mesh_levels_row(),
             mesh_levels_gpu_row(),
+            engine_backends_row(),
+            plain_mc_row(),
         ]
+    )
+
+
+def engine_backends_row() -> str:
+    """docs/benchmarks.md: the compiled kernels against the torch engine, side by side (engine_backends.json)."""
+    record = result("engine_backends.json")
+    meshes = []
+    for cell, shown in (("0.5", "0.5 m"), ("1", "1 m")):
+        mesh = record["cells"][cell]
+        numba, torch = mesh["backends"]["numba"], mesh["backends"]["torch"]
+        agreement = mesh["agreement"]
+        same = (
+            "R, V, I and step counts identical"
+            if agreement["same_R_V_I"] and agreement["same_steps"]
+            else ("R, V, I or step counts DIFFER")
+        )
+        meshes.append(
+            f"{shown}: {numba['seconds_best']:.2f} s against {torch['seconds_best']:.2f} s a realization, "
+            f"{mesh['speedup']:.1f}× ({numba['particle_steps_per_s'] / 1e6:.2f} M particle-steps a second), {same}, "
+            f"final stresses within {agreement['final_stress_max_relative_difference']:.1e} relative"
+        )
+    return (
+        "| the MPM's compiled kernels (numba) against its torch engine, case 1's realization 0 whole, one thread, "
+        f"best of {record['repeats']} | " + "; ".join(meshes) + f"; compile {record['compile']['cold_s']:.1f} s "
+        f"cold, {record['compile']['cached_s']:.2f} s from the cache | `{record['command']}` | "
+        f"`engine_backends.json` {record['commit']} |"
+    )
+
+
+def plain_mc_row() -> str:
+    """docs/benchmarks.md: the plain MPM Monte Carlo of case 1 at 1 m against a default run's answer at 1 m
+    (plain_mc.json)."""
+    record = result("plain_mc.json")
+    default = record["default"]
+
+    def checked(plain: float, interval: list[float | None]) -> str:
+        lower, upper = (-float("inf") if interval[1] is None else interval[1]), interval[2]
+        verdict = "holds" if lower <= plain <= (float("inf") if upper is None else upper) else "MISSES"
+        return f"{ends(interval)} {verdict} its {plain:.2f} m"
+
+    exceeded = "; ".join(f"R exceeded with P {p} {ends(value)}" for p, value in record["runout_exceeded_m"].items())
+    against = "; ".join(
+        [f"mean runout {checked(record['mean_runout_m'][0], default['mean_runout_m'])}"]
+        + [
+            f"R exceeded with P {p} {checked(record['runout_exceeded_m'][p][0], value)}"
+            for p, value in default["runout_exceeded_m"].items()
+        ]
+    )
+    commits = ", ".join(sorted({run["commit"] for run in record["runs"]}))
+    return (
+        f"| a plain MPM Monte Carlo of case 1 at 1 m, {record['realizations']:,} realizations (the paper's reference "
+        f"route) | mean runout {ends(record['mean_runout_m'])}; {exceeded} "
+        f"(95 % bootstrap); {record['job_seconds'] / 3600:.2f} h of job time on one thread each, "
+        f"{record['wall_seconds'] / 3600:.2f} h wall for the {record['chunks_with_wall']} of {record['chunks']} "
+        f"chunks whose run recorded its time; a default run's answer at 1 m (at {default['run_commit']}: its "
+        f"{default['n_paired']} pairs' 1 m "
+        f"partners corrected with its cheap route over 10,000): {against} | `{record['command']}` | "
+        f"`plain_mc.json` {commits} |"
     )
