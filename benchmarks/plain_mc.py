@@ -153,7 +153,8 @@ def markdown(record: dict) -> str:
         f"{record['realizations']:,} realizations by the MPM at 1 m ({record['statuses']}), "
         f"{record['job_seconds'] / 3600:.2f} h of job time (one thread each, two processes side by side); wall "
         f"{record['wall_seconds'] / 3600:.2f} h for the {record['chunks_with_wall']} of its {record['chunks']} chunks "
-        "whose run recorded its time (`python benchmarks/plain_mc.py --run`; partial until 10,000).",
+        "whose run recorded its time (`python benchmarks/plain_mc.py --run`"
+        + ("; partial until 10,000)." if record["realizations"] < 10000 else ")."),
         "",
         f"Mean runout {mean[0]:.2f} m [{mean[1]:.2f}, {mean[2]:.2f}]; R exceeded with P "
         + " / ".join(f"{p}: {v[0]:.2f} m [{v[1]:.2f}, {v[2]:.2f}]" for p, v in record["runout_exceeded_m"].items())
