@@ -42,6 +42,7 @@ from rgns.fidelity.outputs import paired_rows  # noqa: E402
 from rgns.fidelity.pair_design import row_strata  # noqa: E402
 from rgns.hazard.exceedance import distance_at, distance_grid  # noqa: E402
 from rgns.provenance import commit  # noqa: E402
+from rgns.report.documents.formatting import ends  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"
@@ -156,8 +157,8 @@ def markdown(record: dict) -> str:
         "whose run recorded its time (`python benchmarks/plain_mc.py --run`"
         + ("; partial until 10,000)." if record["realizations"] < 10000 else ")."),
         "",
-        f"Mean runout {mean[0]:.2f} m [{mean[1]:.2f}, {mean[2]:.2f}]; R exceeded with P "
-        + " / ".join(f"{p}: {v[0]:.2f} m [{v[1]:.2f}, {v[2]:.2f}]" for p, v in record["runout_exceeded_m"].items())
+        f"Mean runout {ends(mean)}; R exceeded with P "
+        + " / ".join(f"{p}: {ends(v)}" for p, v in record["runout_exceeded_m"].items())
         + " (95 % percentile bootstrap).",
     ]
     if "default" in record:
@@ -167,11 +168,10 @@ def markdown(record: dict) -> str:
             "",
             f"The default run's answer at the same mesh (a fresh clone at {d['run_commit']}: its {d['n_paired']} pairs at 1 m corrected with "
             "its cheap route over 10,000, rule multifidelity's estimators): "
-            f"mean runout {mean[0]:.2f} m [{mean[1]:.2f}, {mean[2]:.2f}]; R exceeded with P "
-            + " / ".join(f"{p}: {v[0]:.2f} m [{v[1]:.2f}, {v[2]:.2f}]" for p, v in distances.items())
+            f"mean runout {ends(mean)}; R exceeded with P "
+            + " / ".join(f"{p}: {ends(v)}" for p, v in distances.items())
             + ". Its best estimate, at the converged mesh, is longer by the mesh step and not comparable here: "
-            f"mean runout {d['converged_mean_runout_m'][0]:.2f} m "
-            f"[{d['converged_mean_runout_m'][1]:.2f}, {d['converged_mean_runout_m'][2]:.2f}].",
+            f"mean runout {ends(d['converged_mean_runout_m'])}.",
         ]
     return "\n".join(lines) + "\n"
 
