@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import copy
 import importlib.util
+import sys
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -57,6 +58,7 @@ def load(path: Path) -> ModuleType:
     spec = importlib.util.spec_from_file_location(path.stem, path)
     assert spec is not None and spec.loader is not None, path
     module = importlib.util.module_from_spec(spec)
+    sys.modules[path.stem] = module  # numba finds an inlined function's module by name
     spec.loader.exec_module(module)
     return module
 

@@ -146,21 +146,22 @@ def _scatter3(nodes, w, particle_mass, vx, vy, mass, momentum_x, momentum_y):
 
 
 @njit(cache=True, inline="always")
-def _force_scatter(nodes, gx, gy, w, mass, p0, count, sxx, syy, txy, volume, gravity_x, gravity_y, force_x, force_y):
-    """force[n] += −v (σ · ∇w) + w m g over one slot's first ``count`` particles in order, as :func:`_scatter3`."""
+def _force_scatter(nodes, gx, gy, w, stress, count, gravity_x, gravity_y, force_x, force_y):
+    """force[n] += −v (σ · ∇w) + w m g over one slot's first ``count`` particles in order, as :func:`_scatter3`;
+    ``stress`` [P, 5]: each particle's σxx, σyy, τxy, −v and m side by side (one stream to read, not five)."""
     current = -1
     a = b = 0.0
     for q in range(count):
-        p = p0 + q
         n = nodes[q]
         if n != current:
             if current >= 0:
                 force_x[current], force_y[current] = a, b
             current = n
             a, b = force_x[n], force_y[n]
-        minus_v = -volume[p]
-        a += minus_v * (sxx[p] * gx[q] + txy[p] * gy[q]) + w[q] * mass[p] * gravity_x
-        b += minus_v * (txy[p] * gx[q] + syy[p] * gy[q]) + w[q] * mass[p] * gravity_y
+        sxx, syy, txy, minus_v = stress[q, 0], stress[q, 1], stress[q, 2], stress[q, 3]
+        weighted = w[q] * stress[q, 4]
+        a += minus_v * (sxx * gx[q] + txy * gy[q]) + weighted * gravity_x
+        b += minus_v * (txy * gx[q] + syy * gy[q]) + weighted * gravity_y
     if current >= 0:
         force_x[current], force_y[current] = a, b
 
@@ -294,12 +295,12 @@ def advance_frame(
     for b in range(len(substeps)):
         largest = max(largest, starts[b + 1] - starts[b])
     nodes = np.empty((slots, largest), dtype=np.int32)
-    w = np.empty((slots, largest))
-    gx = np.empty((slots, largest))
-    gy = np.empty((slots, largest))
+    weights = np.empty((slots, largest, 3))  # w, ∂w/∂x, ∂w/∂y of a slot's particle side by side
+    w, gx, gy = weights[:, :, 0], weights[:, :, 1], weights[:, :, 2]
     strain_xx = np.empty(largest)
     strain_yy = np.empty(largest)
     strain_xy = np.empty(largest)
+    stress = np.empty((largest, 5))
     node_mass = np.empty(n_nodes)
     inverse_mass = np.empty(n_nodes)
     node_vx = np.empty(n_nodes)
@@ -360,27 +361,13 @@ def advance_frame(
                     tension_cutoff[p],
                 )
                 volume[p] = volume[p] * (1.0 + dxx + dyy)
+                stress[q, 0], stress[q, 1], stress[q, 2] = sxx[p], syy[p], txy[p]
+                stress[q, 3], stress[q, 4] = -volume[p], mass[p]
             # grid update: internal and gravity forces, made and summed slot by slot
             force_x[:] = 0.0
             force_y[:] = 0.0
             for s in range(slots):
-                _force_scatter(
-                    nodes[s],
-                    gx[s],
-                    gy[s],
-                    w[s],
-                    mass,
-                    p0,
-                    count,
-                    sxx,
-                    syy,
-                    txy,
-                    volume,
-                    gravity_x,
-                    gravity_y,
-                    force_x,
-                    force_y,
-                )
+                _force_scatter(nodes[s], gx[s], gy[s], w[s], stress, count, gravity_x, gravity_y, force_x, force_y)
             for n in range(n_nodes):
                 inverse = inverse_mass[n]
                 f_x, f_y = force_x[n], force_y[n]
