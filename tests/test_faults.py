@@ -68,7 +68,7 @@ UPSTREAM = ("results/geometry/**/*", "results/fields/**/*", "results/mpm/**/*.h5
 
 def test_a_killed_training_job_resumes_from_its_checkpoint_on_rerun(copied):
     workdir, config = copied
-    config["gns"] |= {"steps": 700, "checkpoint_every": 100}
+    config["gns"] |= {"steps": 400, "checkpoint_every": 100}
     path = write_config(workdir / "longer.yaml", config)
     before = fingerprints(workdir, *UPSTREAM)
     latest = workdir / "results" / "model" / "checkpoints" / "latest.pt"
@@ -76,7 +76,7 @@ def test_a_killed_training_job_resumes_from_its_checkpoint_on_rerun(copied):
 
     def checkpointed() -> bool:
         try:
-            return torch.load(latest, weights_only=False)["step"] >= 200
+            return torch.load(latest, weights_only=False)["step"] >= 100
         except (OSError, EOFError, RuntimeError, KeyError):
             return False
 
@@ -90,8 +90,8 @@ def test_a_killed_training_job_resumes_from_its_checkpoint_on_rerun(copied):
     result = snakemake(workdir, "--cores", "2", "--rerun-incomplete", "results/model/gns.pt", config=path)
     assert result.returncode == 0, result.stderr
     log = (workdir / "logs" / "train" / "train.log").read_text()
-    assert f"resumed from step {saved} of 700" in log, log
-    assert torch.load(latest, weights_only=False)["step"] == 700
+    assert f"resumed from step {saved} of 400" in log, log
+    assert torch.load(latest, weights_only=False)["step"] == 400
     assert fingerprints(workdir, *UPSTREAM) == before
 
 
