@@ -27,13 +27,15 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from rgns.config import load_config
-from rgns.engines.cbgeo.case import read_case
-from rgns.engines.cbgeo.reference_cases import failing_slope
-from rgns.engines.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
-from rgns.engines.metrics import crest_x, influence_distance, runout_distance, sliding_volume
-from rgns.engines.mpm.solver import EngineSettings, run_batch
-from rgns.scene.case import Case
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from reference_cases import failing_slope  # noqa: E402  (the CB-Geo comparison cases, a test fixture)
+
+from rgns.config import load_config  # noqa: E402
+from rgns.engines.cbgeo.case import read_case  # noqa: E402
+from rgns.engines.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo  # noqa: E402
+from rgns.engines.metrics import crest_x, influence_distance, runout_distance, sliding_volume  # noqa: E402
+from rgns.engines.mpm.solver import EngineSettings, run_batch  # noqa: E402
+from rgns.scene.case import Case  # noqa: E402
 
 
 def metrics(case: Case, final: np.ndarray, crest: float) -> dict[str, float]:

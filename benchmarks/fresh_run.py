@@ -14,7 +14,7 @@ convergence of the running moments (``convergence.json``), where the time went (
 Snakemake's log: jobs, their summed seconds, the span), and renders the page's first screen in a
 1,400 x 900 window with headless Chromium (Debian's ``chromium``). Writes
 ``benchmarks/results/fresh_run_<name>.json`` (the README and docs/site.md render their figures from it:
-rgns.report.documents) and ``docs/screens/<name>_first_screen.png``, and copies the figures the docs show.
+evidence) and ``docs/screens/<name>_first_screen.png``, and copies the figures the docs show.
 """
 
 from __future__ import annotations

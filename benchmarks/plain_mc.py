@@ -34,15 +34,16 @@ import pandas as pd
 from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the evidence package
 from mesh_levels import run_settings  # noqa: E402
 
+from evidence.formatting import ends  # noqa: E402
 from rgns.config import load_config  # noqa: E402
 from rgns.fidelity.multifidelity import control_variate, rearranged, regression_control_variate  # noqa: E402
 from rgns.fidelity.outputs import paired_rows  # noqa: E402
 from rgns.fidelity.pair_design import row_strata  # noqa: E402
 from rgns.hazard.exceedance import distance_at, distance_grid  # noqa: E402
 from rgns.provenance import commit  # noqa: E402
-from rgns.report.documents.formatting import ends  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"

@@ -13,7 +13,7 @@ if SHIPPED_ENDSTATE_STEM:
             curve=os.path.join(SHIPPED_ENDSTATE, f"{SHIPPED_ENDSTATE_STEM}_curve.png"),
         output:
             model="results/model/endstate.pt",
-            curve=report("results/model/endstate_curve.png", caption="../docs/captions/endstate_curve.rst", category="End-state surrogate"),
+            curve=report("results/model/endstate_curve.png", caption="../rgns/report/captions/endstate_curve.rst", category="End-state surrogate"),
             evaluation="results/model/endstate_evaluation.json",
         params:
             config=lambda wildcards: {key: config[key] for key in ("domain", "mesh", "mpm")},
@@ -50,7 +50,7 @@ else:
         output:
             model="results/model/endstate.pt",
             history="results/model/endstate_history.csv",
-            curve=report("results/model/endstate_curve.png", caption="../docs/captions/endstate_curve.rst", category="End-state surrogate"),
+            curve=report("results/model/endstate_curve.png", caption="../rgns/report/captions/endstate_curve.rst", category="End-state surrogate"),
             evaluation="results/model/endstate_evaluation.json",
         params:
             endstate=ENDSTATE_TRAINING,

@@ -20,7 +20,7 @@ rule scene_preview:
         scenes=lambda wc: expand("results/geometry/{{set}}/{i}.json", i=preview_ids(wc.set)),
         fields=lambda wc: expand("results/fields/{{set}}/{i}.npz", i=preview_ids(wc.set)),
     output:
-        report("results/plots/{set}/scenes.png", caption="../docs/captions/scenes.rst", category="Scenes"),
+        report("results/plots/{set}/scenes.png", caption="../rgns/report/captions/scenes.rst", category="Scenes"),
     log:
         "logs/scene_preview/{set}.log",
     conda:

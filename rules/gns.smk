@@ -10,7 +10,7 @@ if config["gns"]["model"] == "shipped":
             curve=os.path.join(SHIPPED_MODEL, "learning_curve.png"),
         output:
             model="results/model/gns.pt",
-            curve=report("results/model/learning_curve.png", caption="../docs/captions/learning_curve.rst", category="GNS"),
+            curve=report("results/model/learning_curve.png", caption="../rgns/report/captions/learning_curve.rst", category="GNS"),
             evaluation="results/model/evaluation.json",
         params:
             config=lambda wildcards: {key: config[key] for key in ("domain", "mesh", "mpm")},
@@ -33,7 +33,7 @@ else:
         output:
             model="results/model/gns.pt",
             history="results/model/history.csv",
-            curve=report("results/model/learning_curve.png", caption="../docs/captions/learning_curve.rst", category="GNS"),
+            curve=report("results/model/learning_curve.png", caption="../rgns/report/captions/learning_curve.rst", category="GNS"),
             evaluation="results/model/evaluation.json",
         params:
             gns=lambda wildcards: config["gns"],

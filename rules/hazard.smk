@@ -4,10 +4,10 @@ rule exceedance:
         realizations="results/mc/{case}/realizations.csv",
         mean_field="results/mc/{case}/mean_field.csv",
     output:
-        curve=report("results/report/{case}/exceedance.png", caption="../docs/captions/exceedance.rst", category="Hazard"),
+        curve=report("results/report/{case}/exceedance.png", caption="../rgns/report/captions/exceedance.rst", category="Hazard"),
         curve_csv="results/report/{case}/exceedance.csv",
         curve_json="results/report/{case}/exceedance.json",
-        convergence=report("results/report/{case}/convergence.png", caption="../docs/captions/convergence.rst", category="Hazard"),
+        convergence=report("results/report/{case}/convergence.png", caption="../rgns/report/captions/convergence.rst", category="Hazard"),
         convergence_csv="results/report/{case}/convergence.csv",
         convergence_json="results/report/{case}/convergence.json",
     params:
@@ -25,7 +25,7 @@ rule zoning:
     input:
         realizations="results/mc/{case}/realizations.csv",
     output:
-        map=report("results/report/{case}/zoning.png", caption="../docs/captions/zoning.rst", category="Hazard"),
+        map=report("results/report/{case}/zoning.png", caption="../rgns/report/captions/zoning.rst", category="Hazard"),
         csv="results/report/{case}/zoning.csv",
         json="results/report/{case}/zoning.json",
     params:

@@ -82,7 +82,7 @@ rule multifidelity:
         plan="results/mc/{case}/paired_plan.json",
     output:
         json="results/report/{case}/multifidelity.json",
-        figure=report("results/report/{case}/multifidelity.png", caption="../docs/captions/multifidelity.rst",
+        figure=report("results/report/{case}/multifidelity.png", caption="../rgns/report/captions/multifidelity.rst",
                       category="Hazard"),
     params:
         multifidelity_params,

@@ -43,7 +43,7 @@ if SITE_FILES:
         output:
             zones="results/site/{case}/zones.geojson",
             exceedance="results/site/{case}/exceedance.csv",
-            **({"map": report("results/site/{case}/map.png", caption="../docs/captions/site_map.rst",
+            **({"map": report("results/site/{case}/map.png", caption="../rgns/report/captions/site_map.rst",
                               category="Hazard")} if "map.png" in SITE_FILES else {}),
         params:
             site_gis_params,

@@ -38,9 +38,9 @@ rule validate:
         markdown="results/report/validation/table.md",
         summary="results/report/validation/summary.json",
         gate="results/report/validation/gate.json",
-        histograms=report("results/report/validation/histograms.png", caption="../docs/captions/histograms.rst", category="Validation"),
-        parity=report("results/report/validation/parity.png", caption="../docs/captions/parity.rst", category="Validation"),
-        energy=report(expand("results/report/validation/energy_{case}.png", case=TEST_CASES), caption="../docs/captions/energy.rst", category="Validation"),
+        histograms=report("results/report/validation/histograms.png", caption="../rgns/report/captions/histograms.rst", category="Validation"),
+        parity=report("results/report/validation/parity.png", caption="../rgns/report/captions/parity.rst", category="Validation"),
+        energy=report(expand("results/report/validation/energy_{case}.png", case=TEST_CASES), caption="../rgns/report/captions/energy.rst", category="Validation"),
     params:
         cases=TEST_CASES,
         validation=config["validation"],

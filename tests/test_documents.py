@@ -1,4 +1,4 @@
-"""The figures the README and docs render from committed result files (rgns.report.documents)."""
+"""The figures the README and docs render from committed result files (evidence)."""
 
 import json
 import re
@@ -6,17 +6,17 @@ import subprocess
 
 import pytest
 
-from rgns.report import documents
-from rgns.report.documents import DocumentError, rendered, runs, sources, stale
+import evidence
+from evidence import DocumentError, rendered, runs, sources, stale
 
 
 def test_every_rendered_passage_matches_its_result_files():
-    assert stale() == [], "run python -m rgns.report.documents and commit the documents with their results"
-    assert any("<!-- rendered:" in path.read_text() for path in documents.documents())
+    assert stale() == [], "run python -m evidence and commit the documents with their results"
+    assert any("<!-- rendered:" in path.read_text() for path in evidence.documents())
 
 
 def test_a_figure_edited_by_hand_is_caught_and_rewriting_restores_it(tmp_path):
-    readme = (documents.REPO / "README.md").read_text()
+    readme = (evidence.REPO / "README.md").read_text()
     start = readme.index("<!-- rendered: default-run -->")
     edited = readme[:start] + readme[start:].replace(" min ", " min 1", 1)  # the run's time, edited
     assert edited != readme
@@ -39,13 +39,13 @@ def test_a_passage_without_a_renderer_and_a_result_without_its_commit_are_named(
 
 def test_every_commit_a_document_cites_is_in_the_history():
     """A figure "measured at <commit>" must name a commit a reader can check out."""
-    repo = documents.REPO
+    repo = evidence.REPO
     git = subprocess.run(["git", "rev-parse", "--is-shallow-repository"], cwd=repo, capture_output=True, text=True)
     if git.returncode != 0 or git.stdout.strip() != "false":
         pytest.skip("not a full git clone: the cited commits cannot be looked up")
     cited = {
         (token, path.relative_to(repo))
-        for path in [*documents.documents(), *(repo / "benchmarks" / "results").glob("*.md"), repo / "CHANGELOG.md"]
+        for path in [*evidence.documents(), *(repo / "benchmarks" / "results").glob("*.md"), repo / "CHANGELOG.md"]
         for token in re.findall(r"\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*[0-9])[0-9a-f]{7,10}\b", path.read_text())
     }
     missing = [
@@ -60,7 +60,7 @@ def test_no_current_benchmark_table_row_is_written_by_hand():
     """docs/benchmarks.md's current sections hold their tables only in passages rendered from result files: a
     table row outside them would go stale unseen when its file is re-run (mesh_levels.json had moved
     on to b17ca46 under a hand-written row that still said b0415a2)."""
-    text = documents.BLOCK.sub("", (documents.REPO / "docs" / "benchmarks.md").read_text())  # what is by hand
+    text = evidence.BLOCK.sub("", (evidence.REPO / "docs" / "benchmarks.md").read_text())  # what is by hand
     current = [part for part in re.split(r"^## ", text, flags=re.M) if part.startswith("Current")]
     assert current, "docs/benchmarks.md has no current section"
     by_hand = [line for part in current for line in part.splitlines() if line.startswith("|")]
@@ -90,3 +90,13 @@ def test_a_run_says_where_its_time_went_and_whether_it_met_15_min_on_2_cores():
     assert within[-1].endswith("**met**.")
     over = runs.time_lines({"rules": rules, "seconds": 1000.0, "cases": {"mine": {}}}, "mine")
     assert over[-1].endswith("**missed** by 1 min 40 s.")
+
+
+def test_no_rendered_passage_names_a_path_of_the_machine_it_was_measured_on():
+    """Commands recorded with absolute paths are shown relative to the checkout, scratch as <scratch>."""
+    assert sources.portable("x --config /work/main/config/a.yaml --data /tmp/untouched") == (
+        "x --config config/a.yaml --data <scratch>/untouched"
+    )
+    for path in evidence.documents():
+        for match in evidence.BLOCK.finditer(path.read_text()):
+            assert not sources.CHECKOUT.search(match["body"]) and "/tmp/" not in match["body"], path

@@ -90,3 +90,18 @@ def test_the_hazard_stage_reads_tables_and_scenes_only():
         for module, found in rgns_imports(PACKAGE / "hazard").items()
     }
     assert {module: found for module, found in others.items() if found} == {}
+
+
+def test_the_package_reads_nothing_of_the_lab():
+    """rgns runs from an installed wheel: no module imports the evidence renderer or names the repository's
+    benchmarks or docs folders; what it reads beside its code (models, captions) is package data."""
+    offending = []
+    for path in sorted(PACKAGE.glob("**/*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            imported = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and node.module:
+                imported.append(node.module)
+            named = node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else ""
+            if any(m.split(".")[0] in ("evidence", "benchmarks") for m in imported) or named in ("benchmarks", "docs"):
+                offending.append(path.relative_to(REPO).as_posix())
+    assert offending == []

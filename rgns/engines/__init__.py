@@ -2,7 +2,7 @@
 
 :mod:`rgns.engines.mpm` is the embedded MPM (compiled CPU kernels, or PyTorch), which takes cases in memory and imports no file
 format; :mod:`rgns.engines.cbgeo` writes and reads CB-Geo's case directories and runs the ``mpm``
-binary on them (with the CB-Geo comparison cases, :mod:`rgns.engines.cbgeo.reference_cases`); every
+binary on them; every
 engine runs the case :mod:`rgns.scene.build` makes; :mod:`rgns.engines.chunk` runs a chunk
 of cases through the configured one (``mpm.engine``) into trajectory files, and
 :mod:`rgns.engines.batch` a batch of realizations in memory through the embedded one.

@@ -1,6 +1,6 @@
 """The hazard report: one self-contained HTML page (figures inlined) with captions and tables.
 
-Captions are the ``docs/captions/*.rst`` files that ``snakemake --report`` also uses, rendered
+Captions are the ``rgns/report/captions/*.rst`` (package data) files that ``snakemake --report`` also uses, rendered
 with the same Jinja variables (``snakemake.wildcards``), so both reports say the same thing.
 """
 
@@ -23,7 +23,7 @@ import pandas as pd
 from rgns.hazard.exceedance import distance_at
 from rgns.surrogates.gate import SURROGATE_NAMES
 
-CAPTIONS = Path(__file__).resolve().parents[2] / "docs" / "captions"
+CAPTIONS = Path(__file__).resolve().parent / "captions"
 # what is known of a tail distance's interval (exceeded with P at most TAIL_PROBABILITY, its mesh step modelled
 # from the cheap route's regressions): on synthetic populations calibrated on the real pairs, the sampling part
 # covered 85-90 % at P 0.1 and 0.01 where the relation bends while it was the pairs bootstrap alone (8467917), and
@@ -52,7 +52,7 @@ table.answer td:first-child { white-space: nowrap; }
 
 
 def caption(name: str, **wildcards: str) -> str:
-    """The caption ``docs/captions/<name>.rst`` rendered for ``wildcards``."""
+    """The caption ``rgns/report/captions/<name>.rst`` rendered for ``wildcards``."""
     text = (CAPTIONS / f"{name}.rst").read_text()
     return jinja2.Template(text).render(snakemake=SimpleNamespace(wildcards=SimpleNamespace(**wildcards)))
 

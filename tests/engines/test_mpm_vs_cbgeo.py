@@ -8,9 +8,9 @@ from dataclasses import replace
 
 import pytest
 import torch
+from reference_cases import failing_slope
 
 from rgns.config import load_config
-from rgns.engines.cbgeo.reference_cases import failing_slope
 from rgns.engines.cbgeo.runner import run_cbgeo, trajectory_from_cbgeo
 from rgns.engines.metrics import runout_distance, sliding_volume
 from rgns.engines.mpm.solver import EngineSettings, run_batch

@@ -3,9 +3,9 @@ MPM's backends, the plain MPM Monte Carlo."""
 
 from __future__ import annotations
 
-from rgns.report.documents.fidelity import direct_reference
-from rgns.report.documents.formatting import ends, order_text
-from rgns.report.documents.sources import result
+from evidence.fidelity import direct_reference
+from evidence.formatting import ends, order_text
+from evidence.sources import result
 
 
 def bench_fields() -> str:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import statistics
 from typing import Any
 
-from rgns.report.documents.formatting import ends, half, minutes, r2
-from rgns.report.documents.sources import result
+from evidence.formatting import ends, half, minutes, r2
+from evidence.sources import result
 
 # issue 42's measurement of the default before its route changed (256 realizations gated to the MPM, 16 pairs)
 BEFORE_SECONDS = 23 * 60 + 57

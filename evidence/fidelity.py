@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from rgns.report.documents.formatting import ends, minutes, order_text, pct, true_minus
-from rgns.report.documents.sources import DocumentError, result
+from evidence.formatting import ends, minutes, order_text, pct, true_minus
+from evidence.sources import DocumentError, result
 
 
 def tuned_least() -> str:

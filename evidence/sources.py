@@ -3,12 +3,24 @@
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"
+
+
+# an absolute path in a recorded command: the checkout it ran in (up to a folder of the repository), or scratch
+CHECKOUT = re.compile(r"(?<![\w/.])/(?:[\w.+-]+/)+?(?=(?:config|rgns|benchmarks|tests|docs|results)/)")
+SCRATCH = re.compile(r"(?<![\w/.])/tmp/")
+
+
+def portable(command: str) -> str:
+    """A recorded command as a reader can run it: paths inside the checkout it ran in made relative, scratch
+    folders shown as ``<scratch>/``."""
+    return SCRATCH.sub("<scratch>/", CHECKOUT.sub("", command))
 
 
 class DocumentError(ValueError):
@@ -35,6 +47,9 @@ def result(name: str, legacy: bool = False) -> dict[str, Any]:
         raise DocumentError(f"{shown}: no such result file")
     record = json.loads(path.read_text())
     made = list(parts(record))
+    for part in made:
+        if isinstance(part.get("command"), str):
+            part["command"] = portable(part["command"])
     if legacy and not any(part.get(key) for part in made for key in ("commit", "commits")):
         if not record.get("committed_in"):
             raise DocumentError(f"{shown}: records no commit, nor the commit that committed it ('committed_in')")

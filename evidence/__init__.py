@@ -5,7 +5,7 @@ alike, inside a list item); NAME is one of :data:`RENDERERS`, which reads its re
 ``benchmarks/results`` and writes the passage. Each result file records the command and the commit that made it,
 and the passage says both; a file made before results recorded their commit is read with ``legacy=True`` and its
 passage names the commit that committed it (its ``committed_in``) instead, as such. ``python -m
-rgns.report.documents`` rewrites every marked passage; ``--check`` lists those that differ from their rendering
+evidence`` rewrites every marked passage; ``--check`` lists those that differ from their rendering
 (tests/test_documents.py runs it), so a figure edited by hand, or a result re-measured without its documents,
 fails the tests.
 
@@ -20,8 +20,8 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from rgns.report.documents.benchmarks import bench_current, bench_fields
-from rgns.report.documents.endstate import (
+from evidence.benchmarks import bench_current, bench_fields
+from evidence.endstate import (
     cheap_route_choice,
     endstate_speed,
     endstate_training,
@@ -32,7 +32,7 @@ from rgns.report.documents.endstate import (
     ood_targets,
     tuned_untouched,
 )
-from rgns.report.documents.engine import (
+from evidence.engine import (
     bench_convergence,
     convergence_column,
     convergence_default_error,
@@ -41,7 +41,7 @@ from rgns.report.documents.engine import (
     locking_bspline,
     locking_routes,
 )
-from rgns.report.documents.fidelity import (
+from evidence.fidelity import (
     bench_chain_coverage,
     bench_multifidelity,
     gpu_levels,
@@ -52,15 +52,15 @@ from rgns.report.documents.fidelity import (
     tuned_least,
     tuned_speedups,
 )
-from rgns.report.documents.gns import gns_handover, gns_jitter, gns_recipe, gns_shipped, gns_training
-from rgns.report.documents.runs import (
+from evidence.gns import gns_handover, gns_jitter, gns_recipe, gns_shipped, gns_training
+from evidence.runs import (
     default_run,
     influence_growth,
     pair_coverage,
     site_run,
     strata_spread,
 )
-from rgns.report.documents.sources import REPO, DocumentError
+from evidence.sources import REPO, DocumentError
 
 __all__ = ["BLOCK", "DOCUMENTS", "RENDERERS", "DocumentError", "REPO", "documents", "main", "rendered", "stale"]
 
@@ -147,9 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         differing = stale()
         for path in differing:
-            print(
-                f"{path}: a rendered passage differs from its result files (rewrite: python -m rgns.report.documents)"
-            )
+            print(f"{path}: a rendered passage differs from its result files (rewrite: python -m evidence)")
         return 1 if differing else 0
     for path in documents():
         text = path.read_text()

@@ -5,8 +5,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from rgns.report.documents.formatting import true_minus
-from rgns.report.documents.sources import result
+from evidence.formatting import true_minus
+from evidence.sources import result
 
 
 def bench_convergence() -> str:

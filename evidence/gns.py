@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from rgns.report.documents.formatting import minutes, power
-from rgns.report.documents.sources import card, made_note, result
+from evidence.formatting import minutes, power
+from evidence.sources import card, made_note, result
 
 
 def gns_training() -> str:

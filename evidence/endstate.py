@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from rgns.report.documents.formatting import bracketed, minutes, r2_interval, signed_percent, true_minus
-from rgns.report.documents.sources import card, made_note, result
+from evidence.formatting import bracketed, minutes, r2_interval, signed_percent, true_minus
+from evidence.sources import card, made_note, result
 
 
 def general_training() -> str:

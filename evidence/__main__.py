@@ -1,0 +1,7 @@
+"""``python -m evidence``: rewrite (or ``--check``) every rendered passage."""
+
+import sys
+
+from evidence import main
+
+sys.exit(main())
