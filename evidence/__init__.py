@@ -54,6 +54,7 @@ from evidence.fidelity import (
 )
 from evidence.gns import gns_handover, gns_jitter, gns_recipe, gns_shipped, gns_training
 from evidence.runs import (
+    default_headline,
     default_run,
     influence_growth,
     pair_coverage,
@@ -86,6 +87,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "gns-handover": gns_handover,
     "gns-shipped": gns_shipped,
     "default-run": default_run,
+    "default-headline": default_headline,
     "site-run": site_run,
     "pair-coverage": pair_coverage,
     "strata-spread": strata_spread,

@@ -124,6 +124,31 @@ def default_run() -> str:
     return " ".join(lines)
 
 
+def default_headline() -> str:
+    """README: the default run's time and case 1's answer, in a few lines (the whole record: docs/evidence.md)."""
+    record = result("fresh_run_default.json")
+    case = next(iter(record["cases"]))
+    head = record["cases"][case]
+    distances = head["distances"]["runout_m"]
+    return "\n".join(
+        [
+            "| runout R | best estimate, m | 95 % interval, m |",
+            "|---|---:|---|",
+            f"| mean | {head['means']['runout_m'][0]:.2f} | {interval(head['means']['runout_m'])} |",
+            *(f"| exceeded with P {p} | {distances[p][0]:.2f} | {interval(distances[p])} |" for p in distances),
+            "",
+            f"{head['n_realizations']:,} realizations, {head['n_pairs']} MPM pairs, carried to the converged mesh; "
+            f"**{minutes(record['seconds'])}** from a fresh clone on {record['machine']} "
+            f"(`{record['command']}` at {record['commit'][:7]}).",
+        ]
+    )
+
+
+def interval(entry: list[float | None]) -> str:
+    """'[lo, hi]' of [value, lower, upper] (an open end: 'open')."""
+    return "[" + ", ".join("open" if x is None else f"{x:.2f}" for x in entry[1:]) + "]"
+
+
 def site_run() -> str:
     """docs/site.md: the example site's fresh-clone run and its headline."""
     record = result("fresh_run_site.json")

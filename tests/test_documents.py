@@ -16,11 +16,11 @@ def test_every_rendered_passage_matches_its_result_files():
 
 
 def test_a_figure_edited_by_hand_is_caught_and_rewriting_restores_it(tmp_path):
-    readme = (evidence.REPO / "README.md").read_text()
+    readme = (evidence.REPO / "docs" / "evidence.md").read_text()
     start = readme.index("<!-- rendered: default-run -->")
     edited = readme[:start] + readme[start:].replace(" min ", " min 1", 1)  # the run's time, edited
     assert edited != readme
-    path = tmp_path / "README.md"
+    path = tmp_path / "evidence.md"
     path.write_text(edited)
     assert stale([path]) == [path]
     path.write_text(rendered(edited, str(path)))
@@ -79,7 +79,7 @@ def test_the_pages_tail_caution_quotes_the_coverage_run_it_cites():
 
 
 def test_a_run_says_where_its_time_went_and_whether_it_met_15_min_on_2_cores():
-    """The README says the jobs' summed time, the largest rules first, and the run's wall time against 15 min."""
+    """The evidence page says the jobs' summed time, the largest rules first, and the run's wall time against 15 min."""
     rules = {
         "mc_chunk [paired]": {"jobs": 8, "job_seconds": 300.0},
         "mpm_run": {"jobs": 8, "job_seconds": 60.0},
