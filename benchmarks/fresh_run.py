@@ -14,7 +14,7 @@ convergence of the running moments (``convergence.json``), where the time went (
 Snakemake's log: jobs, their summed seconds, the span), and renders the page's first screen in a
 1,400 x 900 window with headless Chromium (Debian's ``chromium``). Writes
 ``benchmarks/results/fresh_run_<name>.json`` (the README and docs/site.md render their figures from it:
-evidence) and ``docs/screens/<name>_first_screen.png``, and copies the figures the docs show.
+evidence) and ``docs/screens/<name>_first_screens.png``, and copies the figures the docs show.
 """
 
 from __future__ import annotations
@@ -121,7 +121,7 @@ def headline(report: Path, mc: Path) -> dict[str, Any]:
 
 
 def screenshot(page: Path, out: Path) -> None:
-    """The page's first screen in a 1,400 x 900 window (headless Chromium)."""
+    """The page's first two screens of a 1,400 x 900 window (headless Chromium, 1,400 x 1,800)."""
     out.parent.mkdir(parents=True, exist_ok=True)
     subprocess.run(
         [
@@ -130,7 +130,7 @@ def screenshot(page: Path, out: Path) -> None:
             "--no-sandbox",
             "--disable-gpu",
             "--hide-scrollbars",
-            "--window-size=1400,900",
+            "--window-size=1400,1800",
             f"--screenshot={out}",
             page.as_uri(),
         ],
@@ -201,7 +201,7 @@ def main() -> None:
     }
     path = RESULTS / f"fresh_run_{name}.json"
     path.write_text(json.dumps(result, indent=1) + "\n")
-    screenshot(work / "results" / "report" / "report.html", SCREENS / f"{name}_first_screen.png")
+    screenshot(work / "results" / "report" / "report.html", SCREENS / f"{name}_first_screens.png")
     for source, target in FIGURES.get(name, []):
         shutil.copyfile(work / source, REPO / target)
     print(f"{run['seconds']:.0f} s, peak {run['peak_memory_gb']:.2f} GB: {path}", flush=True)

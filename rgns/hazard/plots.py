@@ -13,6 +13,7 @@ import numpy as np  # noqa: E402
 from matplotlib.patches import Patch, Rectangle  # noqa: E402
 
 from rgns.hazard.statistics import (  # noqa: E402
+    ZONE_COLOURS,
     ZONE_LEVELS,
     AffectedProbability,
     ConvergenceTrace,
@@ -22,8 +23,6 @@ from rgns.hazard.statistics import (  # noqa: E402
     zone_range_labels,
     zones,
 )
-
-ZONE_COLOURS = ("red", "darkorange", "yellow", "lightgreen", "green")
 
 
 def _log_floor(n: int) -> float:

@@ -21,8 +21,7 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.colors import LightSource  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 
-from rgns.hazard.plots import ZONE_COLOURS  # noqa: E402
-from rgns.hazard.statistics import ZONE_LEVELS, clopper_pearson  # noqa: E402
+from rgns.hazard.statistics import ZONE_COLOURS, ZONE_LEVELS, clopper_pearson  # noqa: E402
 from rgns.scene.site_section import Section, cumulative_length, site_file  # noqa: E402
 from rgns.tables import write_csv  # noqa: E402
 

@@ -19,6 +19,7 @@ from scipy import stats
 from rgns.hazard.exceedance import sample_distance
 
 ZONE_LEVELS = ("extremely high", "high", "moderate", "low", "extremely low")
+ZONE_COLOURS = ("red", "darkorange", "yellow", "lightgreen", "green")  # each level's, in figures, maps and the page
 DEFAULT_THRESHOLDS = (0.9, 0.5, 0.1, 0.01)
 
 

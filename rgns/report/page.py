@@ -21,14 +21,12 @@ import jinja2
 import pandas as pd
 
 from rgns.hazard.exceedance import distance_at
+from rgns.hazard.statistics import ZONE_COLOURS, ZONE_LEVELS
 from rgns.surrogates.gate import SURROGATE_NAMES
 
 CAPTIONS = Path(__file__).resolve().parent / "captions"
 # what is known of a tail distance's interval (exceeded with P at most TAIL_PROBABILITY, its mesh step modelled
-# from the cheap route's regressions): on synthetic populations calibrated on the real pairs, the sampling part
-# covered 85-90 % at P 0.1 and 0.01 where the relation bends while it was the pairs bootstrap alone (8467917), and
-# 85 % with the union's first model-based half (f015f0c), the reported interval 100 %; its present form (6d65e29:
-# resamples drawn from all N cheap runs; pairs in strata since 540711a) is being measured there
+# from the cheap route's regressions), as measured (tests/test_documents.py checks the quote against the result file)
 TAIL_PROBABILITY = 0.1
 TAIL_COVERAGE = (
     "on a synthetic population whose relation bends, its sampling part covered 92.0 % at P 0.1 and 92.5 % at "
@@ -48,6 +46,10 @@ details { border-bottom: 1px solid #ddd; margin: 0.4em 0; }
 summary { font-size: 1.15em; font-weight: bold; cursor: pointer; padding: 0.3em 0; }
 table.answer { font-size: 0.95em; } table.answer td:first-child, table.answer td:last-child { text-align: left; }
 table.answer td:first-child { white-space: nowrap; }
+ol.notes { font-size: 0.85em; color: #444; margin-top: 0; }
+div.zones { display: flex; height: 2.2em; border: 1px solid #888; margin: 0.5em 0 0.2em; }
+div.zones div { display: flex; align-items: center; justify-content: center; font-size: 0.85em; overflow: hidden; }
+div.axis { display: flex; justify-content: space-between; font-size: 0.8em; color: #555; margin-bottom: 1em; }
 """
 
 
@@ -272,7 +274,7 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
     return line + ".", excluded
 
 
-def cautions(record: dict[str, Any], p: str | None, upper: float | None, mesh_step: float | None) -> str:
+def cautions(record: dict[str, Any], p: str | None, upper: float | None, mesh_step: float | None) -> list[str]:
     """Why to read one number of the answer with care, in a few words ("" where nothing is known against it):
     a best estimate by the MPM alone, a mean left at the accurate mesh, a tail distance whose mesh step is
     modelled (beyond the pairs, where fewer than one is expected past P), an interval these runs leave open."""
@@ -284,11 +286,12 @@ def cautions(record: dict[str, Any], p: str | None, upper: float | None, mesh_st
         if mesh_step is None:
             said.append(f"at {record['high_cell_size_m']:g} m cells: no convergence order measured")
         elif p is not None and float(p) <= TAIL_PROBABILITY:
-            beyond = f" beyond the {pairs} pairs" if pairs * float(p) < 1.0 else ""
-            said.append(f"mesh step modelled{beyond}: {TAIL_COVERAGE}")
+            said.append(f"mesh step modelled from the cheap route's regressions: {TAIL_COVERAGE}")
+            if pairs * float(p) < 1.0:
+                said.append(f"beyond the {pairs} pairs: fewer than one is expected past this probability")
     if p is not None and upper is None:
         said.append("open above: these runs do not bound it")
-    return "; ".join(said)
+    return said
 
 
 def band_ends(curve: dict[str, Any], p: str, entry: dict[str, Any]) -> tuple[float | None, float | None]:
@@ -298,11 +301,23 @@ def band_ends(curve: dict[str, Any], p: str, entry: dict[str, Any]) -> tuple[flo
     return lower, None if entry.get("open_above") else distance_at(curve["d_m"], curve["upper"], float(p))
 
 
-def headline_rows(record: dict[str, Any]) -> list[dict[str, Any]]:
+def interval_text(lower: Any, upper: Any, digits: int = 2) -> str:
+    """'[lower, upper]', an end the runs leave open written 'open'."""
+    return f"[{_number(lower, digits) if lower is not None else 'open'}, {_number(upper, digits) if upper is not None else 'open'}]"
+
+
+def headline_rows(record: dict[str, Any]) -> tuple[list[dict[str, Any]], list[str]]:
     """The answer, one row per number: the best estimate with its interval, the mesh it stands for (converged
-    where a mesh step was taken) and :func:`cautions`."""
+    where a mesh step was taken) and the numbers of its notes; and the notes, each :func:`cautions` text once."""
     names = {"runout_m": "runout R (m)", "volume_m2": "volume V (m²)", "influence_m": "influence I (m)"}
     high = record["high_cell_size_m"]
+    notes: list[str] = []
+
+    def marks(said: list[str]) -> str:
+        for text in said:
+            if text not in notes:
+                notes.append(text)
+        return ", ".join(str(notes.index(text) + 1) for text in said)
 
     def row(key: str, p: str | None, value: Any, lower: Any, upper: Any, mesh_step: float | None) -> dict[str, Any]:
         return {
@@ -310,24 +325,56 @@ def headline_rows(record: dict[str, Any]) -> list[dict[str, Any]]:
             if p is not None
             else f"mean {names.get(key, key)}",
             "best estimate": value,
-            f"[{record['confidence']:.0%}": lower,
-            "interval]": upper,
+            f"{record['confidence']:.0%} interval": interval_text(lower, upper),
             "mesh": "converged" if mesh_step is not None else f"{high:g} m",
-            "read with care": cautions(record, p, upper, mesh_step),
+            "note": marks(cautions(record, p, upper, mesh_step)),
         }
 
     if "converged" in record:
         c = record["converged"]
-        return [
+        rows = [
             row(key, p, d["estimate"], d["lower"], d["upper"], d.get("mesh_step"))
             for key, entries in c["distances"].items()
             for p, d in entries.items()
         ] + [row(key, None, m["estimate"], m["lower"], m["upper"], m["mesh_step"]) for key, m in c["means"].items()]
-    return [
-        row(key, p, d["corrected"], *band_ends(curve, p, d), None)
-        for key, curve in record["exceedance"].items()
-        for p, d in curve["distances"].items()
-    ] + [row(key, None, m["estimate"], m["lower"], m["upper"], None) for key, m in record["means"].items()]
+    else:
+        rows = [
+            row(key, p, d["corrected"], *band_ends(curve, p, d), None)
+            for key, curve in record["exceedance"].items()
+            for p, d in curve["distances"].items()
+        ] + [row(key, None, m["estimate"], m["lower"], m["upper"], None) for key, m in record["means"].items()]
+    return rows, notes
+
+
+def footnotes(notes: list[str]) -> str:
+    """The answer's notes, numbered as its table marks them."""
+    items = "".join(f"<li>{html.escape(text)}</li>" for text in notes)
+    return f'<ol class="notes">{items}</ol>' if notes else ""
+
+
+def zone_band(zones: list[dict[str, Any]]) -> str:
+    """The zones as a coloured band along the section: one block per zone, as wide as its extent, in its level's
+    colour (the zoning figure's), labelled with its level and its ends."""
+    whole = max(zone["x_to_m"] for zone in zones) - min(zone["x_from_m"] for zone in zones)
+    blocks = []
+    for zone in zones:
+        width = zone["x_to_m"] - zone["x_from_m"]
+        colour = ZONE_COLOURS[ZONE_LEVELS.index(zone["level"])]
+        label = f"{zone['level']}: {zone['x_from_m']:.1f}–{zone['x_to_m']:.1f} m"
+        shown = html.escape(zone["level"]) if width / whole > 0.08 else ""
+        blocks.append(
+            f'<div style="flex: {width:.4f}; background: {colour}" title="{html.escape(label)}">{shown}</div>'
+        )
+    ends = (
+        f'<div class="axis"><span>x = {min(z["x_from_m"] for z in zones):g} m</span>'
+        f"<span>x = {max(z['x_to_m'] for z in zones):g} m</span></div>"
+    )
+    return f'<div class="zones">{"".join(blocks)}</div>{ends}'
+
+
+def folded(summary: str, *parts: str) -> str:
+    """Parts inside a closed <details> element within a section."""
+    return f"<details><summary>{html.escape(summary)}</summary>\n" + "\n".join(parts) + "\n</details>"
 
 
 def answer_section(report: Report, case: str, files: dict[str, Path]) -> None:
@@ -340,16 +387,19 @@ def answer_section(report: Report, case: str, files: dict[str, Path]) -> None:
     converged = "converged" in record
     zoning = record["converged"]["zoning"]["zones"] if converged else record["zoning"]["zones_corrected"]
     mesh = "the converged mesh" if converged else f"the MPM at {record['high_cell_size_m']:g} m cells"
+    rows, notes = headline_rows(record)
     report.add(
         f"{case}: the answer at {mesh}",
         paragraph(
             f"The best estimate: {source(record)}"
             + (", carried to the converged mesh (the evidence below, step by step)." if converged else ".")
         ),
-        table(pd.DataFrame(headline_rows(record)), 2, "answer"),
+        table(pd.DataFrame(rows), 2, "answer"),
+        footnotes(notes),
         figure(files["multifidelity.png"], caption("multifidelity", case=case)),
-        paragraph(f"Zones along the section at {mesh}:"),
-        table(pd.DataFrame(zoning), 2),
+        paragraph(f"Zones along the section at {mesh} (hover a zone for its ends):"),
+        zone_band(zoning),
+        folded("The zones as a table", table(pd.DataFrame(zoning), 2)),
         *([figure(files["map.png"], caption("site_map", case=case))] if "map.png" in files else []),
     )
 
@@ -617,14 +667,57 @@ def evidence_section(report: Report, case: str, files: dict[str, Path]) -> None:
     line, excluded = _runout_line(case, record)
     report.add(
         f"{case}: the evidence",
-        subheading("What the runs say"),
-        paragraph(line, note=excluded),
-        subheading("The best estimate, step by step"),
-        *steps,
-        *pair_validation_parts(case, record),
-        *allocation_parts(record),
-        *interval_parts(record),
+        *[paragraph(text) for text in pairs_summary(record)],
+        folded(
+            "The statistics behind it",
+            subheading("What the runs say"),
+            paragraph(line, note=excluded),
+            subheading("The best estimate, step by step"),
+            *steps,
+            *pair_validation_parts(case, record),
+            *allocation_parts(record),
+            *interval_parts(record),
+        ),
     )
+
+
+def pairs_summary(record: dict[str, Any]) -> list[str]:
+    """What the pairs say, in three lines: how well the cheap route agrees with the MPM on them, how far the
+    correction and the mesh step moved the mean runout, what the intervals hold."""
+    high, n = record["high_cell_size_m"], record["n_paired"]
+    agreement = record.get("pair_validation", {}).get("runout_m")
+    said = [
+        f"{n} realizations were re-run by the MPM at {high:g} m cells"
+        + (
+            f": on them the cheap route ({record.get('cheap_route', 'the Monte Carlo simulator')}) agrees with the "
+            f"MPM at runout R² {with_interval(agreement['r2'], 2)}, bias {_number(agreement['bias'][0], 2)} m."
+            if agreement
+            else "."
+        )
+    ]
+    if "converged" in record:
+        m = record["converged"]["means"]["runout_m"]
+        step = (
+            f", and the step to the converged mesh {m['mesh_step']:+.2f} m"
+            if m["mesh_step"] is not None
+            else "; no mesh step"
+        )
+        said.append(
+            f"The correction moved the mean runout from {m['cheap_mean']:.2f} m (cheap route) to {m['accurate']:.2f} m "
+            f"(MPM at {high:g} m){step}: best estimate {m['estimate']:.2f} m."
+        )
+    else:
+        m = record["means"]["runout_m"]
+        said.append(
+            f"The correction moved the mean runout from {m['low_mean']:.2f} m (cheap route) to {m['estimate']:.2f} m "
+            f"(MPM at {high:g} m)."
+        )
+    said.append(
+        f"The {record['confidence']:.0%} intervals hold the sampling of the cheap runs and the pairs and the "
+        "correction's weights"
+        + (", and the mesh order's range." if "converged" in record else f", not the error of the {high:g} m mesh.")
+    )
+    return said
 
 
 def correction_details(report: Report, case: str, files: dict[str, Path]) -> None:
@@ -766,17 +859,22 @@ def model_section(
     )
 
 
-def routes(cases: list[str], gate: dict[str, dict[str, Any]], surrogate: str) -> dict[str, str]:
-    """What ran each Monte Carlo case: the surrogate that passed its gate, the surrogate that failed it (the gate
-    a report of the model: on_failure report), or MPM (configured)."""
-    name = SURROGATE_NAMES[surrogate]
+def routes(
+    cases: list[str], gate: dict[str, dict[str, Any]], surrogate: str, pairs: dict[str, int] | None = None
+) -> dict[str, str]:
+    """What ran each Monte Carlo case: the learned simulator corrected by the case's MPM pairs (``pairs``: their
+    number per corrected case), the learned simulator alone (its gate's verdict said: nothing corrects it), or
+    the MPM (configured)."""
+    name, pairs = SURROGATE_NAMES[surrogate], pairs or {}
     return {
         case: (
-            "MPM (configured)"
+            f"{name}, corrected by {pairs[case]} MPM pairs"
+            if case in pairs
+            else "MPM (configured)"
             if case not in gate
-            else f"{name} (passed its gate)"
+            else f"{name} alone (passed its validation gate)"
             if gate[case]["passed"]
-            else f"{name} (failed its gate, run all the same)"
+            else f"{name} alone, which failed its validation gate (below)"
         )
         for case in cases
     }
@@ -842,9 +940,10 @@ def build_report(
     Monte Carlo map. ``surrogate`` (gns or endstate) is the learned simulator validated, whose curve and
     evaluation these are (None: a plain MPM Monte Carlo, no learned simulator, nor its curve, evaluation
     or validation); ``made`` the provenance (rgns.provenance)."""
-    lead = provenance_line(made, routes(list(hazard), gate or {}, surrogate or "gns")) if made else ""
-    report = Report(title, "\n".join([lead, *shrinkage_notes(hazard, validation_summary)]))
     corrected = [case for case, files in hazard.items() if "multifidelity.json" in files]
+    pairs = {case: json.loads(hazard[case]["multifidelity.json"].read_text())["n_paired"] for case in corrected}
+    lead = provenance_line(made, routes(list(hazard), gate or {}, surrogate or "gns", pairs)) if made else ""
+    report = Report(title, "\n".join([lead, *shrinkage_notes(hazard, validation_summary)]))
     # (a) the gate first where a case's map rests on the learned simulator alone (no pairs correct it)
     rests_on_model = any(case not in corrected for case in hazard)
     if rests_on_model:

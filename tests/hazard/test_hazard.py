@@ -263,7 +263,7 @@ def test_the_exceedance_figure_draws_each_metrics_own_curve_and_the_mean_field_w
 def test_the_zoning_figure_draws_each_zone_where_the_zones_put_it_in_its_colour(tmp_path, monkeypatch):
     """Read back: the band under the section has one rectangle per zone, spanning that zone's x range in the
     colour of its level, and the probability line is P(affected) floored at 1 / 2n on the log axis."""
-    from rgns.hazard.plots import ZONE_COLOURS
+    from rgns.hazard.statistics import ZONE_COLOURS
 
     drawn = drawn_figures(monkeypatch)
     rng = np.random.default_rng(14)

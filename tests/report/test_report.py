@@ -1,10 +1,12 @@
 """The report's top: every gate verdict, the route of each Monte Carlo case, what made the page."""
 
+import json
 import re
 
 import pandas as pd
 import pytest
 
+from rgns.hazard.statistics import ZONE_COLOURS, ZONE_LEVELS
 from rgns.report.page import Report, _runout_line, gate_section, provenance_line, routes
 
 GATE = {
@@ -36,11 +38,17 @@ def test_every_verdict_is_in_the_report_also_of_cases_outside_the_monte_carlo():
 
 
 def test_the_lead_names_the_route_of_each_case():
+    """Which simulator ran each case, and that pairs corrected it; the gate's verdict only where nothing did."""
     case_routes = routes(["case1", "case2", "site"], GATE, "endstate")
     assert case_routes == {
-        "case1": "end-state surrogate (passed its gate)",
-        "case2": "end-state surrogate (failed its gate, run all the same)",
+        "case1": "end-state surrogate alone (passed its validation gate)",
+        "case2": "end-state surrogate alone, which failed its validation gate (below)",
         "site": "MPM (configured)",
+    }
+    corrected = routes(["case1", "case2"], GATE, "endstate", {"case1": 32, "case2": 16})
+    assert corrected == {
+        "case1": "end-state surrogate, corrected by 32 MPM pairs",
+        "case2": "end-state surrogate, corrected by 16 MPM pairs",
     }
     made = {
         "version": "0.1.0",
@@ -51,8 +59,8 @@ def test_the_lead_names_the_route_of_each_case():
     page = Report("r", provenance_line(made, case_routes)).html()
     assert (
         "Made by rgns 0.1.0 (commit 0123456789) from configuration abcdef012345 (SHA-256 prefix) on "
-        "2026-11-25 09:00 UTC. Monte Carlo: case1: end-state surrogate (passed its gate); case2: end-state "
-        "surrogate (failed its gate, run all the same); site: MPM (configured)."
+        "2026-11-25 09:00 UTC. Monte Carlo: case1: end-state surrogate alone (passed its validation gate); case2: "
+        "end-state surrogate alone, which failed its validation gate (below); site: MPM (configured)."
     ) in page
 
 
@@ -64,7 +72,6 @@ def test_captions_render_their_literals():
 
 
 def test_fewer_runs_than_made_is_a_warning_at_the_top(tmp_path):
-    import json
 
     from rgns.report.page import shrinkage_notes
 
@@ -208,7 +215,6 @@ def synthetic_record(converged: bool, pair_validation: bool) -> dict:
 def synthetic_page(tmp_path, record: dict | None, learned: bool = True) -> str:
     """build_report over one Monte Carlo case with ``record`` (None: no multi-fidelity correction) and
     stand-in figures (any bytes inline); ``learned`` False: a plain MPM Monte Carlo, no learned simulator."""
-    import json
 
     from rgns.report.page import build_report
 
@@ -267,7 +273,8 @@ def test_the_page_leads_with_the_best_estimate_and_folds_the_details(tmp_path, c
     configuration and the rest folded in <details>; every figure once."""
     page = synthetic_page(tmp_path, synthetic_record(converged, pair_validation=True))
     lead = page.split("<h2>")[0]
-    assert "Made by rgns 0.1.0" in lead and "case1: end-state surrogate (passed its gate)" in lead
+    assert "Made by rgns 0.1.0" in lead and "case1: end-state surrogate, corrected by" in lead
+    assert "validation gate" not in lead and "its gate" not in lead
     assert page.split("<h2>")[1].startswith("case1: the answer at")
     order = [
         page.index('<table class="dataframe answer">'),  # the one table of the answer
@@ -342,3 +349,32 @@ def test_a_plain_mpm_monte_carlo_has_no_model_on_its_page(tmp_path):
     learned = synthetic_page(tmp_path / "learned", None)  # the same page with a learned simulator has them all
     assert "<summary>End-state surrogate</summary>" in learned and "<summary>Scenes</summary>" in learned
     assert "<summary>Validation against MPM on the test cases" in learned
+
+
+def test_the_answer_gives_one_interval_column_each_caution_once_and_the_zones_as_a_band(tmp_path):
+    """The answer's table holds one interval column; a caution shared by several numbers is one numbered note
+    under it, said once on the page; the zones are drawn as a band of their levels' colours, as wide as each."""
+    record = synthetic_record(True, pair_validation=True)
+    c = record["converged"]
+    tail = {"accurate": 12.0, "accurate_band": [11.0, 14.0], "mesh_step": 0.8, "mesh_step_range": [0.6, 1.2]}
+    c["distances"]["runout_m"] |= {  # P 0.1: a modelled step; P 0.01: beyond the 16 pairs too, open above
+        "0.1": tail | {"estimate": 12.8, "lower": 11.5, "upper": 15.0},
+        "0.01": tail | {"estimate": 15.8, "lower": 14.0, "upper": None},
+    }
+    c["means"]["influence_m"] |= {"mesh_step": None, "mesh_step_range": None}
+    c["zoning"]["zones"] = [
+        {"level": level, "x_from_m": start, "x_to_m": end}
+        for level, start, end in (("low", 0.0, 10.0), ("high", 10.0, 14.5), ("extremely high", 14.5, 60.0))
+    ]
+    page = synthetic_page(tmp_path, record)
+    answer = page[page.index("the answer at") : page.index("<h2>Validation gate</h2>")]
+    assert "95% interval</th>" in answer and "[95%" not in page and "interval]</th>" not in answer
+    notes = re.findall(r"<li>(.*?)</li>", answer[answer.index('<ol class="notes">') :])
+    assert notes and len(set(notes)) == len(notes)
+    assert all(page.count(note) == 1 for note in notes)
+    marks = re.findall(r"<td>(\d+(?:, \d+)*)</td>\s*</tr>", answer)
+    assert {int(m) for mark in marks for m in mark.split(", ")} == set(range(1, len(notes) + 1))
+    band = re.findall(r'<div style="flex: ([\d.]+); background: (\w+)"', answer)
+    zones = c["zoning"]["zones"]
+    assert [float(width) for width, _ in band] == pytest.approx([z["x_to_m"] - z["x_from_m"] for z in zones], abs=1e-4)
+    assert [colour for _, colour in band] == [ZONE_COLOURS[ZONE_LEVELS.index(z["level"])] for z in zones]

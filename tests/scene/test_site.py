@@ -218,8 +218,7 @@ def test_the_map_view_draws_each_zone_on_the_section_in_its_levels_colour(tmp_pa
     import matplotlib.collections
     import matplotlib.pyplot as plt
 
-    from rgns.hazard.plots import ZONE_COLOURS
-    from rgns.hazard.statistics import ZONE_LEVELS
+    from rgns.hazard.statistics import ZONE_COLOURS, ZONE_LEVELS
 
     kept = []
     monkeypatch.setattr(plt, "close", kept.append)

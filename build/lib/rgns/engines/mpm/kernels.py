@@ -1,0 +1,459 @@
+"""The explicit MPM step of :mod:`rgns.engines.mpm.step` as compiled CPU kernels (numba), a frame per call.
+
+The same scheme, the same arithmetic in the same order: every product, sum and branch of the torch step
+is written out per particle, and the scatters sum each node's contributions in the order of torch's
+``scatter_add_`` over the flattened [K, P] slots (slot first, then particle), so a run agrees with the
+torch engine to rounding (torch's CPU ``sqrt`` is not always correctly rounded; numba's is). A call
+advances every realization of a batch by its own substeps of one frame, one realization after another
+(they never share a node), so no Python runs between substeps. Serial ``@njit(cache=True)``: no
+threading layer beside torch's OpenMP, and a fresh process loads the compiled kernel from the cache
+(``__pycache__`` beside this file, or ``NUMBA_CACHE_DIR``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+MASS_TOLERANCE = 1e-15  # as rgns.engines.mpm.step
+
+
+@njit(cache=True, inline="always")
+def _maximum(a: float, b: float) -> float:
+    """torch.maximum: NaN if either is NaN."""
+    if a != a or b != b:
+        return a + b
+    return a if a >= b else b
+
+
+@njit(cache=True, inline="always")
+def _minimum(a: float, b: float) -> float:
+    """torch.minimum: NaN if either is NaN."""
+    if a != a or b != b:
+        return a + b
+    return a if a <= b else b
+
+
+@njit(cache=True, inline="always")
+def _sign(a: float) -> float:
+    if a > 0.0:
+        return 1.0
+    if a < 0.0:
+        return -1.0
+    return a * 0.0  # ±0 stays 0, NaN stays NaN
+
+
+@njit(cache=True, inline="always")
+def _clamp(a: float, low: float, high: float) -> float:
+    return _minimum(_maximum(a, low), high)
+
+
+@njit(cache=True, inline="always")
+def _per_h(a: float, h: float, inverse_h: float) -> float:
+    """a / h, as a product where that is exact (``inverse_h`` = 1 / h for h a power of two, else 0)."""
+    return a * inverse_h if inverse_h != 0.0 else a / h
+
+
+@njit(cache=True, inline="always")
+def _finite_or_zero(a: float) -> float:
+    """nan_to_num(a, 0, 0, 0)."""
+    if a != a or a == np.inf or a == -np.inf:
+        return 0.0
+    return a
+
+
+@njit(cache=True, inline="always")
+def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy):
+    """Slot ids and weights [K, P] of particles p0..p1 (shape.py's bases; ``grid`` as :func:`advance_frame`'s);
+    returns how many lie outside the region."""
+    origin_x, origin_y, h, lower_x, lower_y = grid[0], grid[1], grid[2], grid[3], grid[4]
+    nx, ny, mesh_nx, mesh_ny, inverse_h = int(grid[5]), int(grid[6]), int(grid[7]), int(grid[8]), grid[9]
+    outside = 0
+    for p in range(p0, p1):
+        q = p - p0
+        u = _per_h(x[p] - origin_x, h, inverse_h) - lower_x
+        v = _per_h(y[p] - origin_y, h, inverse_h) - lower_y
+        if not (u >= 0.0 and u <= nx and v >= 0.0 and v <= ny):
+            outside += 1
+        u = _finite_or_zero(u)
+        v = _finite_or_zero(v)
+        if spline:
+            wx0, wx1, wx2, dx0, dx1, dx2, i = _quadratic(u, nx)
+            wy0, wy1, wy2, dy0, dy1, dy2, j = _quadratic(v, ny)
+            _spline_row(
+                0, (j + 0) * (nx + 2) + i, wy0, dy0, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy
+            )
+            _spline_row(
+                3, (j + 1) * (nx + 2) + i, wy1, dy1, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy
+            )
+            _spline_row(
+                6, (j + 2) * (nx + 2) + i, wy2, dy2, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy
+            )
+        else:
+            u = u + lower_x
+            v = v + lower_y
+            ci = _clamp(np.floor(u), 0.0, mesh_nx - 1.0)
+            cj = _clamp(np.floor(v), 0.0, mesh_ny - 1.0)
+            xi = _clamp(u - ci, 0.0, 1.0)
+            eta = _clamp(v - cj, 0.0, 1.0)
+            base = int(cj) * (mesh_nx + 1) + int(ci)
+            nodes[0, q], nodes[1, q] = base, base + 1
+            nodes[2, q], nodes[3, q] = base + mesh_nx + 2, base + mesh_nx + 1
+            w[0, q] = (1 - xi) * (1 - eta)
+            w[1, q] = xi * (1 - eta)
+            w[2, q] = xi * eta
+            w[3, q] = (1 - xi) * eta
+            gx[0, q], gx[1, q] = _per_h(eta - 1, h, inverse_h), _per_h(1 - eta, h, inverse_h)
+            gx[2, q], gx[3, q] = _per_h(eta, h, inverse_h), _per_h(-eta, h, inverse_h)
+            gy[0, q], gy[1, q] = _per_h(xi - 1, h, inverse_h), _per_h(-xi, h, inverse_h)
+            gy[2, q], gy[3, q] = _per_h(xi, h, inverse_h), _per_h(1 - xi, h, inverse_h)
+    return outside
+
+
+@njit(cache=True, inline="always")
+def _spline_row(s, first, wy, dy, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy):
+    """Slots s, s + 1, s + 2 (one row of DOFs, the first at id ``first``) of particle q."""
+    nodes[s, q], nodes[s + 1, q], nodes[s + 2, q] = first, first + 1, first + 2
+    w[s, q], w[s + 1, q], w[s + 2, q] = wy * wx0, wy * wx1, wy * wx2
+    gx[s, q] = _per_h(wy * dx0, h, inverse_h)
+    gx[s + 1, q] = _per_h(wy * dx1, h, inverse_h)
+    gx[s + 2, q] = _per_h(wy * dx2, h, inverse_h)
+    gy[s, q] = _per_h(dy * wx0, h, inverse_h)
+    gy[s + 1, q] = _per_h(dy * wx1, h, inverse_h)
+    gy[s + 2, q] = _per_h(dy * wx2, h, inverse_h)
+
+
+@njit(cache=True, inline="always")
+def _scatter3(nodes, w, particle_mass, vx, vy, mass, momentum_x, momentum_y):
+    """mass[n] += w m, momentum[n] += w m v over one slot's particles in order. A node's running sums
+    stay in registers while consecutive particles share it: the same additions in the same order, no store and
+    reload between them."""
+    current = -1
+    m = mx = my = 0.0
+    for q in range(len(vx)):
+        n = nodes[q]
+        if n != current:
+            if current >= 0:
+                mass[current], momentum_x[current], momentum_y[current] = m, mx, my
+            current = n
+            m, mx, my = mass[n], momentum_x[n], momentum_y[n]
+        weighted = w[q] * particle_mass[q]
+        m += weighted
+        mx += weighted * vx[q]
+        my += weighted * vy[q]
+    if current >= 0:
+        mass[current], momentum_x[current], momentum_y[current] = m, mx, my
+
+
+@njit(cache=True, inline="always")
+def _force_scatter(nodes, gx, gy, w, stress, count, gravity_x, gravity_y, force_x, force_y):
+    """force[n] += −v (σ · ∇w) + w m g over one slot's first ``count`` particles in order, as :func:`_scatter3`;
+    ``stress`` [P, 5]: each particle's σxx, σyy, τxy, −v and m side by side (one stream to read, not five)."""
+    current = -1
+    a = b = 0.0
+    for q in range(count):
+        n = nodes[q]
+        if n != current:
+            if current >= 0:
+                force_x[current], force_y[current] = a, b
+            current = n
+            a, b = force_x[n], force_y[n]
+        sxx, syy, txy, minus_v = stress[q, 0], stress[q, 1], stress[q, 2], stress[q, 3]
+        weighted = w[q] * stress[q, 4]
+        a += minus_v * (sxx * gx[q] + txy * gy[q]) + weighted * gravity_x
+        b += minus_v * (txy * gx[q] + syy * gy[q]) + weighted * gravity_y
+    if current >= 0:
+        force_x[current], force_y[current] = a, b
+
+
+@njit(cache=True, inline="always")
+def _quadratic(t, n):
+    """shape.clamped_quadratic_1d at one point: weights, derivatives of DOFs c, c + 1, c + 2, and c."""
+    c = _clamp(np.floor(t), 0.0, n - 1.0)
+    s = _clamp(t - c, 0.0, 1.0)
+    r = 1 - s
+    first, last = c == 0, c == n - 1
+    w0 = r * r if first else 0.5 * r * r
+    d0 = -2 * r if first else -r
+    if first:
+        w1, d1 = 2 * s - 1.5 * s * s, 2 - 3 * s
+    elif last:
+        w1, d1 = 2 * r - 1.5 * r * r, 3 * r - 2
+    else:
+        w1, d1 = 0.5 + s - s * s, 1 - 2 * s
+    w2 = s * s if last else 0.5 * s * s
+    d2 = 2 * s if last else s
+    return w0, w1, w2, d0, d1, d2, int(c)
+
+
+@njit(cache=True, inline="always")
+def _principal_return(s1, s2, s3, k, sigma_c, lame_lambda, shear_modulus, m):
+    """mohr_coulomb._principal_return for one stress: the returned principal stresses."""
+    lam_trace = lame_lambda * (m - 1)
+    g2 = 2 * shear_modulus
+    g2m = g2 * m
+    big, small = lam_trace + g2m, lam_trace - g2
+    f1, f2, f3 = k * s1 - s3 - sigma_c, k * s2 - s3 - sigma_c, k * s1 - s2 - sigma_c
+    m11 = k * big - small
+    c12 = k * lam_trace - small
+    c13 = k * big - lam_trace
+    l1 = f1 / m11
+    main0, main1, main2 = s1 - l1 * big, s2 - l1 * lam_trace, s3 - l1 * small
+    if main0 >= main1 and main1 >= main2:
+        return main0, main1, main2
+    apex_value = sigma_c / (k - 1)
+    det2 = m11 * m11 - c12 * c12
+    p2, q2 = (m11 * f1 - c12 * f2) / det2, (m11 * f2 - c12 * f1) / det2
+    e20, e21, e22 = s1 - p2 * big - q2 * lam_trace, s2 - p2 * lam_trace - q2 * big, s3 - (p2 + q2) * small
+    if main1 > main0 and p2 >= 0 and q2 >= 0 and e20 + e21 + e22 <= 3 * apex_value:
+        return e20, e21, e22
+    det3 = m11 * m11 - c13 * c13
+    p3, q3 = (m11 * f1 - c13 * f3) / det3, (m11 * f3 - c13 * f1) / det3
+    e30, e31, e32 = s1 - (p3 + q3) * big, s2 - p3 * lam_trace - q3 * small, s3 - p3 * small - q3 * lam_trace
+    if main2 > main1 and p3 >= 0 and q3 >= 0 and e30 + e31 + e32 <= 3 * apex_value:
+        return e30, e31, e32
+    return apex_value, apex_value, apex_value
+
+
+@njit(cache=True, inline="always")
+def _stress_update(sxx, syy, szz, txy, dxx, dyy, dxy, shear_modulus, lame_lambda, k, m, sigma_c, tension_cutoff):
+    """elastic_increment and return_map of one particle: its new (σxx, σyy, σzz, τxy)."""
+    g = shear_modulus
+    volumetric = lame_lambda * (dxx + dyy)
+    t_xx = sxx + (volumetric + 2 * g * dxx)
+    t_yy = syy + (volumetric + 2 * g * dyy)
+    t_zz = szz + volumetric
+    t_xy = txy + g * dxy
+    centre = 0.5 * (t_xx + t_yy)
+    half_difference = 0.5 * (t_xx - t_yy)
+    radius = np.sqrt(half_difference**2 + t_xy**2)
+    a, b = centre + radius, centre - radius
+    s1, s3 = _maximum(a, t_zz), _minimum(b, t_zz)
+    plastic = k * s1 - s3 - sigma_c > 0
+    if not (plastic or s1 > tension_cutoff):
+        return t_xx, t_yy, t_zz, t_xy
+    s2 = a + b + t_zz - s1 - s3
+    r1, r2, r3 = s1, s2, s3
+    if plastic:
+        r1, r2, r3 = _principal_return(s1, s2, s3, k, sigma_c, lame_lambda, g, m)
+    r1, r2, r3 = _minimum(r1, tension_cutoff), _minimum(r2, tension_cutoff), _minimum(r3, tension_cutoff)
+    z_top, z_bottom = t_zz >= a, t_zz < b
+    new_z = r1 if z_top else (r3 if z_bottom else r2)
+    new_a = r2 if z_top else r1
+    new_b = r2 if z_bottom else r3
+    centre, half = 0.5 * (new_a + new_b), 0.5 * (new_a - new_b)
+    if radius > 0:
+        cos2, sin2 = half_difference / radius, t_xy / radius
+    else:
+        cos2, sin2 = 1.0, 0.0
+    return centre + half * cos2, centre - half * cos2, new_z, half * sin2
+
+
+@njit(cache=True)
+def advance_frame(
+    x,
+    y,
+    vx,
+    vy,
+    mass,
+    volume,
+    sxx,
+    syy,
+    szz,
+    txy,
+    shear_modulus,
+    lame_lambda,
+    k,
+    m,
+    sigma_c,
+    tension_cutoff,
+    starts,
+    substeps,
+    dts,
+    grid,
+    spline,
+    fixed_x,
+    fixed_y,
+    floor,
+    friction,
+    gravity_x,
+    gravity_y,
+    damping,
+    pic_blend,
+    outside,
+):
+    """Advance realization b (particles starts[b]..starts[b + 1]) by substeps[b] steps of dts[b], in place.
+
+    ``grid``: origin x, y, cell h, region lower x, y, region cells nx, ny, mesh cells nx, ny, 1 / h where h is a
+    power of two (0 otherwise: divide, as torch does); the basis is the
+    clamped quadratic B-spline (``spline``) or the bilinear cell; ``fixed_x`` … ``friction`` are the
+    constraints of one realization's DOFs. ``outside[b]`` counts particle steps out of the region.
+    """
+    n_nodes = fixed_x.shape[0]
+    slots = 9 if spline else 4
+    largest = 0
+    for b in range(len(substeps)):
+        largest = max(largest, starts[b + 1] - starts[b])
+    nodes = np.empty((slots, largest), dtype=np.int32)
+    weights = np.empty((slots, largest, 3))  # w, ∂w/∂x, ∂w/∂y of a slot's particle side by side
+    w, gx, gy = weights[:, :, 0], weights[:, :, 1], weights[:, :, 2]
+    strain_xx = np.empty(largest)
+    strain_yy = np.empty(largest)
+    strain_xy = np.empty(largest)
+    stress = np.empty((largest, 5))
+    node_mass = np.empty(n_nodes)
+    inverse_mass = np.empty(n_nodes)
+    node_vx = np.empty(n_nodes)
+    node_vy = np.empty(n_nodes)
+    force_x = np.empty(n_nodes)
+    force_y = np.empty(n_nodes)
+    node_ax = np.empty(n_nodes)
+    node_ay = np.empty(n_nodes)
+    new_vx = np.empty(n_nodes)
+    new_vy = np.empty(n_nodes)
+    for b in range(len(substeps)):
+        p0, p1 = starts[b], starts[b + 1]
+        count = p1 - p0
+        dt = dts[b]
+        for _ in range(substeps[b]):
+            outside[b] += _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy)
+            # p2g: nodal mass and momentum, slot by slot as torch's scatter_add_
+            node_mass[:] = 0.0
+            force_x[:] = 0.0  # momentum first, forces later
+            force_y[:] = 0.0
+            for s in range(slots):  # each array summed slot by slot, particle by particle
+                _scatter3(nodes[s], w[s], mass[p0:p1], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y)
+            for n in range(n_nodes):
+                inverse = 1.0 / node_mass[n] if node_mass[n] > MASS_TOLERANCE else 0.0
+                inverse_mass[n] = inverse
+                node_vx[n] = 0.0 if fixed_x[n] else force_x[n] * inverse
+                node_vy[n] = 0.0 if fixed_y[n] else force_y[n] * inverse
+            # strain increments from the nodal velocities (four sums, each over the slots in order)
+            for q in range(count):
+                lxx = 0.0
+                lyy = 0.0
+                lxy = 0.0
+                lyx = 0.0
+                for s in range(slots):
+                    n = nodes[s, q]
+                    lxx += node_vx[n] * gx[s, q]
+                    lyy += node_vy[n] * gy[s, q]
+                    lxy += node_vx[n] * gy[s, q]
+                    lyx += node_vy[n] * gx[s, q]
+                strain_xx[q], strain_yy[q], strain_xy[q] = dt * lxx, dt * lyy, dt * (lxy + lyx)
+            # the stress update and the new volume
+            for q in range(count):
+                p = p0 + q
+                dxx, dyy = strain_xx[q], strain_yy[q]
+                sxx[p], syy[p], szz[p], txy[p] = _stress_update(
+                    sxx[p],
+                    syy[p],
+                    szz[p],
+                    txy[p],
+                    dxx,
+                    dyy,
+                    strain_xy[q],
+                    shear_modulus[p],
+                    lame_lambda[p],
+                    k[p],
+                    m[p],
+                    sigma_c[p],
+                    tension_cutoff[p],
+                )
+                volume[p] = volume[p] * (1.0 + dxx + dyy)
+                stress[q, 0], stress[q, 1], stress[q, 2] = sxx[p], syy[p], txy[p]
+                stress[q, 3], stress[q, 4] = -volume[p], mass[p]
+            # grid update: internal and gravity forces, made and summed slot by slot
+            force_x[:] = 0.0
+            force_y[:] = 0.0
+            for s in range(slots):
+                _force_scatter(nodes[s], gx[s], gy[s], w[s], stress, count, gravity_x, gravity_y, force_x, force_y)
+            for n in range(n_nodes):
+                inverse = inverse_mass[n]
+                f_x, f_y = force_x[n], force_y[n]
+                if damping != 0.0:
+                    magnitude = damping * np.sqrt(f_x**2 + f_y**2)
+                    f_x, f_y = f_x - magnitude * _sign(node_vx[n]), f_y - magnitude * _sign(node_vy[n])
+                ax, ay = f_x * inverse, f_y * inverse
+                if floor[n] and ay < 0:
+                    limit = friction[n] * abs(ay)
+                    v0 = node_vx[n]
+                    if v0 != 0:
+                        moving = v0 + dt * ax
+                        ax = -v0 / dt if abs(moving) <= limit * dt else ax - _sign(moving) * limit
+                    else:
+                        ax = 0.0 if abs(ax) <= limit else ax - _sign(ax) * limit
+                if fixed_x[n]:
+                    ax = 0.0
+                if fixed_y[n]:
+                    ay = 0.0
+                node_ax[n], node_ay[n] = ax, ay
+                new_vx[n] = 0.0 if fixed_x[n] else node_vx[n] + dt * ax
+                new_vy[n] = 0.0 if fixed_y[n] else node_vy[n] + dt * ay
+            # g2p: FLIP velocities (blended with PIC), positions with the new nodal velocities
+            for q in range(count):
+                p = p0 + q
+                sum_ax = 0.0
+                sum_ay = 0.0
+                pic_x = 0.0
+                pic_y = 0.0
+                for s in range(slots):
+                    n = nodes[s, q]
+                    ws = w[s, q]
+                    sum_ax += ws * node_ax[n]
+                    sum_ay += ws * node_ay[n]
+                    pic_x += ws * new_vx[n]
+                    pic_y += ws * new_vy[n]
+                flip_x = vx[p] + dt * sum_ax
+                flip_y = vy[p] + dt * sum_ay
+                if pic_blend != 0.0:
+                    flip_x = (1 - pic_blend) * flip_x + pic_blend * pic_x
+                    flip_y = (1 - pic_blend) * flip_y + pic_blend * pic_y
+                vx[p], vy[p] = flip_x, flip_y
+                x[p] = x[p] + dt * pic_x
+                y[p] = y[p] + dt * pic_y
+
+
+@njit(cache=True)
+def frame_summary(
+    x,
+    y,
+    vx,
+    vy,
+    mass,
+    volume,
+    sxx,
+    syy,
+    szz,
+    txy,
+    shear_modulus,
+    lame_lambda,
+    starts,
+    gravity,
+    energy,
+    non_finite,
+    speed,
+):
+    """Per realization b, as solver.energies and the solver's checks: ``energy[b]`` (kinetic, potential from y = 0,
+    elastic), ``non_finite[b]`` (particles with a non-finite position or velocity), ``speed[b]`` (the largest)."""
+    for b in range(len(starts) - 1):
+        kinetic = 0.0
+        potential = 0.0
+        elastic = 0.0
+        bad = 0
+        fastest = 0.0
+        for p in range(starts[b], starts[b + 1]):
+            g, lam = shear_modulus[p], lame_lambda[p]
+            e = g * (3 * lam + 2 * g) / (lam + g)
+            nu = lam / (2 * (lam + g))
+            a, c, z, t = sxx[p], syy[p], szz[p], txy[p]
+            density = (a**2 + c**2 + z**2 - 2 * nu * (a * c + c * z + z * a)) / (2 * e) + t**2 / (2 * g)
+            squared = vx[p] ** 2 + vy[p] ** 2
+            kinetic += 0.5 * mass[p] * squared
+            potential += mass[p] * gravity * y[p]
+            elastic += density * volume[p]
+            if not (np.isfinite(x[p]) and np.isfinite(y[p]) and np.isfinite(vx[p]) and np.isfinite(vy[p])):
+                bad += 1
+            fastest = _maximum(fastest, np.sqrt(squared))
+        energy[b, 0], energy[b, 1], energy[b, 2] = kinetic, potential, elastic
+        non_finite[b], speed[b] = bad, fastest

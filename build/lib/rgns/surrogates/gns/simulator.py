@@ -1,0 +1,174 @@
+"""The learned simulator: features, normalisation, integration and the training loss.
+
+Inputs per particle are its last ``history + 1`` positions; features are the ``history``
+velocities normalised per axis, the distances to the domain walls over the connectivity radius
+(clipped to ±1), a particle-type embedding and the normalised tan φ; edges carry only relative
+displacement over the radius and its length. The network predicts a normalised acceleration,
+integrated with semi-implicit Euler at dt = 1 frame. Training adds random-walk noise to the input
+positions and corrects the target so the model learns to undo it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+from rgns.surrogates.gns.graph import radius_graph
+from rgns.surrogates.gns.network import EncodeProcessDecode
+
+PARTICLE_TYPES = 9
+TYPE_EMBEDDING = 16
+
+
+@dataclass
+class ModelSettings:
+    """Architecture (config section ``gns``)."""
+
+    latent_size: int = 128
+    mlp_width: int = 128
+    mlp_hidden_layers: int = 2
+    message_passing_steps: int = 10
+    history: int = 5
+    radius_m: float = 4.0
+    acceleration_features: bool = False  # also the history's accelerations, normalised as the targets are
+
+
+@dataclass
+class Normalization:
+    """Dataset statistics the model normalises with (per-frame units), a dataclass not a tuple."""
+
+    velocity_mean: list[float]
+    velocity_std: list[float]
+    acceleration_mean: list[float]
+    acceleration_std: list[float]
+    tan_friction_mean: float
+    tan_friction_std: float
+
+
+@dataclass
+class GraphInput:
+    """A batch of disjoint particle sets: positions [N, history + 1, 2] and per-particle data."""
+
+    positions: torch.Tensor
+    particle_type: torch.Tensor  # [N] long
+    tan_friction: torch.Tensor  # [N]
+    batch: torch.Tensor  # [N] graph of each particle
+    n_graphs: int
+
+
+class LearnedSimulator(nn.Module):
+    """Next positions from position histories, through :class:`EncodeProcessDecode`."""
+
+    def __init__(self, settings: ModelSettings, normalization: Normalization, bounds: np.ndarray):
+        super().__init__()
+        self.settings = settings
+        self.normalization = normalization
+        for name in ("velocity_mean", "velocity_std", "acceleration_mean", "acceleration_std"):
+            self.register_buffer(name, torch.tensor(getattr(normalization, name), dtype=torch.float32))
+        self.register_buffer("bounds", torch.tensor(np.asarray(bounds), dtype=torch.float32))
+        self.type_embedding = nn.Embedding(PARTICLE_TYPES, TYPE_EMBEDDING)
+        node_features = 2 * settings.history + 4 + TYPE_EMBEDDING + 1
+        if settings.acceleration_features:
+            node_features += 2 * (settings.history - 1)
+        self.network = EncodeProcessDecode(
+            node_features,
+            3,
+            2,
+            settings.latent_size,
+            settings.mlp_width,
+            settings.mlp_hidden_layers,
+            settings.message_passing_steps,
+        )
+
+    def config(self) -> dict:
+        """What it takes to rebuild this simulator (saved with the weights)."""
+        return {
+            "settings": asdict(self.settings),
+            "normalization": asdict(self.normalization),
+            "bounds": self.bounds.tolist(),
+        }
+
+    def graph_features(self, graph: GraphInput, senders: torch.Tensor, receivers: torch.Tensor):
+        radius = self.settings.radius_m
+        last = graph.positions[:, -1]
+        raw_velocities = graph.positions[:, 1:] - graph.positions[:, :-1]
+        velocities = (raw_velocities - self.velocity_mean) / self.velocity_std
+        walls = torch.cat([last - self.bounds[:, 0], self.bounds[:, 1] - last], dim=1) / radius
+        norm = self.normalization
+        tan_friction = (graph.tan_friction - norm.tan_friction_mean) / norm.tan_friction_std
+        parts = [velocities.flatten(1)]
+        if self.settings.acceleration_features:
+            accelerations = raw_velocities[:, 1:] - raw_velocities[:, :-1]
+            parts.append(((accelerations - self.acceleration_mean) / self.acceleration_std).flatten(1))
+        nodes = torch.cat(
+            [*parts, walls.clamp(-1.0, 1.0), self.type_embedding(graph.particle_type), tan_friction[:, None]], dim=1
+        )
+        displacement = (last[senders] - last[receivers]) / radius
+        edges = torch.cat([displacement, displacement.norm(dim=1, keepdim=True)], dim=1)
+        return nodes, edges
+
+    def forward(self, graph: GraphInput, edges: tuple[torch.Tensor, torch.Tensor] | None = None) -> torch.Tensor:
+        """Normalised acceleration [N, 2] of every particle."""
+        senders, receivers = (
+            edges if edges is not None else radius_graph(graph.positions[:, -1], graph.batch, self.settings.radius_m)
+        )
+        nodes, edge_features = self.graph_features(graph, senders, receivers)
+        return self.network(nodes, edge_features, senders, receivers)
+
+    def next_positions(self, graph: GraphInput, edges: tuple[torch.Tensor, torch.Tensor] | None = None) -> torch.Tensor:
+        """Semi-implicit Euler with dt = 1 frame: v' = v + a, x' = x + v'."""
+        acceleration = self(graph, edges) * self.acceleration_std + self.acceleration_mean
+        velocity = graph.positions[:, -1] - graph.positions[:, -2] + acceleration
+        return graph.positions[:, -1] + velocity
+
+
+def random_walk_noise(
+    positions: torch.Tensor, noise_std: float, generator: torch.Generator | None = None
+) -> torch.Tensor:
+    """Noise [N, T, 2] for a position history: a random walk of velocities whose last step has
+    standard deviation ``noise_std``; the first position is left clean."""
+    steps = positions.shape[1] - 1
+    velocity_noise = torch.randn(positions.shape[0], steps, 2, generator=generator) * (noise_std / steps**0.5)
+    walk = torch.cumsum(velocity_noise, dim=1)
+    return torch.cat([torch.zeros_like(walk[:, :1]), torch.cumsum(walk, dim=1)], dim=1).to(positions)
+
+
+class OneStepLoss(nn.Module):
+    """MSE of normalised accelerations, averaged per graph then over graphs (so each trajectory
+    weighs the same whatever its size, and a batch split across processes averages to the same
+    gradient). Normalised targets are clipped at ``target_clip``. Calling this module, wrapped or
+    not in DistributedDataParallel, is one step."""
+
+    def __init__(self, simulator: LearnedSimulator, target_clip: float | None = None):
+        super().__init__()
+        self.simulator, self.target_clip = simulator, target_clip
+
+    def forward(self, graph: GraphInput, target: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        noisy = GraphInput(
+            graph.positions + noise, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs
+        )
+        # the target keeps the clean next position moved by the last noise step: only velocities are noised
+        target_normalized = self.normalized_target(noisy, target + noise[:, -1])
+        return self._graph_mean((self.simulator(noisy) - target_normalized).pow(2).sum(dim=1), graph)
+
+    def mean_predictor(self, graph: GraphInput, target: torch.Tensor) -> torch.Tensor:
+        """The loss of always predicting the mean acceleration (0 normalised), noise-free: the baseline."""
+        return self._graph_mean(self.normalized_target(graph, target).pow(2).sum(dim=1), graph)
+
+    def normalized_target(self, graph: GraphInput, target: torch.Tensor) -> torch.Tensor:
+        """The acceleration that reaches ``target`` from the last two positions, normalised and clipped."""
+        sim = self.simulator
+        acceleration = target - 2 * graph.positions[:, -1] + graph.positions[:, -2]
+        normalized = (acceleration - sim.acceleration_mean) / sim.acceleration_std
+        if self.target_clip:  # a free fall or a floor impact of 26 g must not outweigh everything else
+            normalized = normalized.clamp(-self.target_clip, self.target_clip)
+        return normalized
+
+    @staticmethod
+    def _graph_mean(error: torch.Tensor, graph: GraphInput) -> torch.Tensor:
+        per_graph = torch.zeros(graph.n_graphs, device=error.device).index_add_(0, graph.batch, error)
+        counts = torch.bincount(graph.batch, minlength=graph.n_graphs).clamp_min(1)
+        return (per_graph / counts).mean()
