@@ -6,7 +6,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from rgns.engines.mpm.backend import uses_kernels
-from rgns.montecarlo.routes import PAIRED, monte_carlo_routes
+from rgns.montecarlo.routes import PAIRED, chunk_labels, chunk_share, monte_carlo_routes
 from rgns.scene.fields import FIELD_KEYS
 from rgns.scene.geometry import DRAW_KEYS
 from rgns.scene.realizations import CaseInputs, accurate_case_inputs, mean_vertices
@@ -92,14 +92,12 @@ def mpm_run_params(wildcards):
 
 def chunk_ids(set_name):
     """Chunk ids of a set ('000', '001', ...): realizations split by mpm.chunk_size."""
-    size = config["mpm"]["chunk_size"]
-    return [f"{k:03d}" for k in range(-(-len(set_ids(set_name)) // size))]
+    return chunk_labels(len(set_ids(set_name)), config["mpm"]["chunk_size"])
 
 
 def chunk_members(set_name, chunk):
     """Realization ids of one chunk."""
-    size = config["mpm"]["chunk_size"]
-    return set_ids(set_name)[int(chunk) * size:(int(chunk) + 1) * size]
+    return chunk_share(set_ids(set_name), int(chunk), config["mpm"]["chunk_size"])
 
 
 def kernels_ready(wildcards):
@@ -294,7 +292,7 @@ def exceedance_params(wildcards):
 def endstate_chunk_ids():
     """Chunk ids of the end-state training realizations of each test case (the held-out ones last)."""
     section = config["endstate"]
-    return [f"{k:03d}" for k in range(-(-(section["realizations"] + section["held_out"]) // section["chunk_size"]))]
+    return chunk_labels(section["realizations"] + section["held_out"], section["chunk_size"])
 
 
 ENDSTATE_SETS = config["endstate"]["sets"] or TEST_CASES
@@ -306,14 +304,13 @@ ENDSTATE_TRAINING = {key: value for key, value in config["endstate"].items() if 
 def endstate_validation_chunk_ids():
     """Chunk ids of the validation realizations of each endstate.validation set."""
     section = config["endstate"]["validation"]
-    return [f"{k:03d}" for k in range(-(-section["realizations"] // section["chunk_size"]))]
+    return chunk_labels(section["realizations"], section["chunk_size"])
 
 
 def end_state_chunk_params(case, seed, chunk, chunk_size, total):
     """A set's inputs drawn from ``seed``, and the MPM run of chunk ``chunk`` of its ``total`` realizations."""
-    first = int(chunk) * chunk_size
     return {"inputs": asdict(CaseInputs.from_config(config | {"seed": seed}, case)),
-            "indices": list(range(first, min(first + chunk_size, total))), "mpm": config["mpm"],
+            "indices": chunk_share(list(range(total)), int(chunk), chunk_size), "mpm": config["mpm"],
             "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
 
 
@@ -334,7 +331,7 @@ def endstate_data_params(wildcards):
 def tuned_chunk_ids():
     """Chunk ids of the tuning realizations of each Monte Carlo case (the held-out ones last)."""
     section = config["endstate"]["tuned"]
-    return [f"{k:03d}" for k in range(-(-(section["realizations"] + section["held_out"]) // section["chunk_size"]))]
+    return chunk_labels(section["realizations"] + section["held_out"], section["chunk_size"])
 
 
 def tuned_data_params(wildcards):

@@ -53,7 +53,7 @@ class Route:
 
     def chunk_ids(self, config: dict[str, Any]) -> list[str]:
         """Its chunk ids ('000', '001', ...)."""
-        return [f"{k:03d}" for k in range(-(-self.count(config) // self.chunk_size))]
+        return chunk_labels(self.count(config), self.chunk_size)
 
 
 def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
@@ -132,6 +132,11 @@ def monte_carlo_routes(config: dict[str, Any]) -> dict[str, Route]:
                 )
             )
     return {route.name: route for route in routes}
+
+
+def chunk_labels(count: int, chunk_size: int) -> list[str]:
+    """The ids ('000', '001', ...) of the chunks of ``chunk_size`` that ``count`` items make (the last one short)."""
+    return [f"{k:03d}" for k in range(-(-count // chunk_size))]
 
 
 def chunk_share(listed: list[int], chunk: int, chunk_size: int) -> list[int]:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from rgns.montecarlo.routes import chunk_share
+from rgns.montecarlo.routes import chunk_labels, chunk_share
 from rgns.tables import TableError, read_chunk
 
 COLUMNS = [
@@ -36,7 +36,7 @@ def collect_listed(paths: list[str], indices: list[int], chunk_size: int) -> pd.
     """Chunk tables that together hold the listed realizations, in the list's order, chunk k its k-th share
     of ``chunk_size`` (rgns.montecarlo.routes.chunk_share), each checked to hold exactly those: one cut
     short, or left over from another montecarlo config or pair plan, is named."""
-    if len(paths) != -(-len(indices) // chunk_size):
+    if len(paths) != len(chunk_labels(len(indices), chunk_size)):
         raise TableError(f"{len(paths)} chunk tables for {len(indices)} realizations in chunks of {chunk_size}")
     tables = [read_chunk(path, sorted(chunk_share(indices, k, chunk_size)), COLUMNS) for k, path in enumerate(paths)]
     table = pd.concat(tables, ignore_index=True).set_index("index", drop=False)

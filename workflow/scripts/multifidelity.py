@@ -5,6 +5,7 @@ from pathlib import Path
 
 from rgns.fidelity.outputs import costs, write_multifidelity
 from rgns.logsetup import log_to_file
+from rgns.montecarlo.routes import chunk_labels
 from rgns.tables import read_csv
 
 log = log_to_file(snakemake.log[0])
@@ -14,7 +15,7 @@ simulator = read_csv(snakemake.input.simulator) if snakemake.input.simulator != 
 benchmarks = {
     "low_benchmarks": settings["low_benchmarks"],  # the paired chunks: as many as hold its rows
     "high_benchmarks": [
-        settings["high_benchmark_pattern"].format(chunk=k) for k in range(-(-len(high) // settings["chunk_size"]))
+        settings["high_benchmark_pattern"].format(chunk=int(k)) for k in chunk_labels(len(high), settings["chunk_size"])
     ],
 }
 measured = {name: [p for p in paths if Path(p).exists()] for name, paths in benchmarks.items()}
