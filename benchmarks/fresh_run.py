@@ -1,4 +1,4 @@
-"""The README's run, timed from a fresh clone: ``hazard_map`` on a config, its headline, its page's first screen.
+"""The README's run, timed from a fresh clone: ``hazard_map`` on a config, its headline, its page's first screens.
 
     .venv/bin/python benchmarks/fresh_run.py                              # the default config
     .venv/bin/python benchmarks/fresh_run.py --configfile config/site.yaml
@@ -11,7 +11,7 @@ run is recorded: a run beside other work is slower, and says so. From the run's 
 estimate per Monte Carlo case (``results/report/<case>/multifidelity.json``: the means and distances carried
 to the converged mesh with their intervals and sampling parts, the pairs' validation, the allocation), the
 convergence of the running moments (``convergence.json``), where the time went (per rule and route, from
-Snakemake's log: jobs, their summed seconds, the span), and renders the page's first screen in a
+Snakemake's log: jobs, their summed seconds, the span), and renders the page's first two screens of a
 1,400 x 900 window with headless Chromium (Debian's ``chromium``). Writes
 ``benchmarks/results/fresh_run_<name>.json`` (the README and docs/site.md render their figures from it:
 evidence) and ``docs/screens/<name>_first_screens.png``, and copies the figures the docs show.
