@@ -8,7 +8,6 @@ sets to geometry families, a mesh that tiles the domain.
 from __future__ import annotations
 
 import difflib
-import logging
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -19,8 +18,6 @@ import yaml
 
 from rgns.scene.sets import test_cases
 from rgns.scene.site import apply_site
-
-log = logging.getLogger(__name__)
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SCHEMA_PATH = REPO_ROOT / "config" / "schema.yaml"
@@ -209,14 +206,14 @@ def consistency_errors(config: dict[str, Any]) -> list[str]:
                     f"config key 'sets.{set_name}[{g}].family' = {group['family']!r}: no such "
                     f"family under geometry.families (have: {', '.join(sorted(families))})"
                 )
-    return (
-        errors
-        + _montecarlo_errors(config)
-        + _hazard_errors(config)
-        + _shipped_errors(config)
-        + _shipped_endstate_errors(config)
-        + _shipped_tuned_errors(config)
-    )
+    return errors + _montecarlo_errors(config) + _hazard_errors(config) + _shipped_model_errors(config)
+
+
+def _shipped_model_errors(config: dict[str, Any]) -> list[str]:
+    """What the shipped models the config selects say against it (rgns.surrogates.shipped.config_errors)."""
+    from rgns.surrogates.shipped import config_errors  # local: only needed here
+
+    return config_errors(config)
 
 
 def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
@@ -235,63 +232,6 @@ def _generator_errors(fam_name: str, family: dict[str, Any]) -> list[str]:
         f"{family['generator']!r} has no such parameter (it has: {', '.join(sorted(known))})"
         for name in sorted(given - known)
     ]
-
-
-def _shipped_errors(config: dict[str, Any]) -> list[str]:
-    """With gns.model: shipped and the GNS the Monte Carlo's simulator, the keys the shipped model is tied to must
-    be its own (said before any job runs)."""
-    from rgns.surrogates.shipped import (  # local: torch-free, but only needed here
-        ShippedModelError,
-        check_serves,
-        read_card,
-    )
-
-    if config["gns"]["model"] != "shipped" or config["montecarlo"]["simulator"] != "gns":
-        return []
-    try:
-        check_serves(read_card(), config)
-    except ShippedModelError as error:
-        return [f"config key 'gns.model' = 'shipped': {error}"]
-    return []
-
-
-def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
-    """With the shipped end-state surrogate as the Monte Carlo's simulator, the keys it is tied to must be its own."""
-    from rgns.surrogates.endstate.card import check_serves, outside_ranges  # local: only needed here
-    from rgns.surrogates.shipped import MODELS, ShippedModelError, read_card
-
-    model = config["endstate"]["model"]
-    if config["montecarlo"]["simulator"] != "endstate" or model == "train":
-        return []
-    try:
-        card = read_card(MODELS, "endstate_card.json" if model == "shipped" else "endstate_general_card.json")
-        check_serves(card, config)
-    except ShippedModelError as error:
-        other = (
-            " — or endstate.model: general, the geometry-general model for any slope in a domain up to "
-            "80 x 20 m (rgns/models/endstate_general_card.md)"
-            if model == "shipped"
-            else ""
-        )
-        return [f"config key 'endstate.model' = {model!r}: {error}{other}"]
-    for line in outside_ranges(card, config, config["montecarlo"]["cases"]):
-        log.warning(line)
-    return []
-
-
-def _shipped_tuned_errors(config: dict[str, Any]) -> list[str]:
-    """With the shipped tuned end-state surrogate as the correction's control, its cases and keys must be this config's."""
-    from rgns.surrogates.endstate.tuned_card import check_tuned_serves  # local: only needed here
-    from rgns.surrogates.shipped import MODELS, ShippedModelError, read_card
-
-    fidelity = config["montecarlo"]["fidelity"]
-    if not fidelity["paired"] or fidelity["cheap"] != "tuned" or config["endstate"]["tuned"]["model"] != "shipped":
-        return []
-    try:
-        check_tuned_serves(read_card(MODELS, "endstate_tuned_card.json"), config)
-    except ShippedModelError as error:
-        return [f"config key 'montecarlo.fidelity.cheap' = 'tuned': {error}"]
-    return []
 
 
 def _montecarlo_errors(config: dict[str, Any]) -> list[str]:

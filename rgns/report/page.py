@@ -866,12 +866,13 @@ def routes(
     number per corrected case), the learned simulator alone (its gate's verdict said: nothing corrects it), or
     the MPM (configured)."""
     name, pairs = SURROGATE_NAMES[surrogate], pairs or {}
+    corrected = {case: f", corrected by {n} MPM pairs" for case, n in pairs.items()}
     return {
         case: (
-            f"{name}, corrected by {pairs[case]} MPM pairs"
-            if case in pairs
-            else "MPM (configured)"
+            "MPM (configured)" + corrected.get(case, "")
             if case not in gate
+            else f"{name}{corrected[case]}"
+            if case in corrected
             else f"{name} alone (passed its validation gate)"
             if gate[case]["passed"]
             else f"{name} alone, which failed its validation gate (below)"

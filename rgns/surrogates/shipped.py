@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import shutil
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,8 @@ from typing import Any
 import pandas as pd
 
 from rgns.scene.sets import test_cases
+
+log = logging.getLogger(__name__)
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 # config keys a model is tied to: the walls it learned, the resolution and the time step
@@ -209,3 +212,60 @@ def render_card(
         lines += ["## Validation against fresh MPM runs of the test cases", "", *about, validation_markdown.strip(), ""]
     lines += ["## Config it was trained with", "", "```json", json.dumps(card["config"], indent=2), "```", ""]
     return "\n".join(lines)
+
+
+def config_errors(config: dict[str, Any]) -> list[str]:
+    """What the shipped models a config selects (the GNS, the end-state surrogate, the tuned one as the cheap
+    route) say against it: each error names the key that chose the model; warnings for cases outside a card's
+    training ranges go to the log. Torch-free: the cards only."""
+    return _shipped_errors(config) + _shipped_endstate_errors(config) + _shipped_tuned_errors(config)
+
+
+def _shipped_errors(config: dict[str, Any]) -> list[str]:
+    """With gns.model: shipped and the GNS the Monte Carlo's simulator, the keys the shipped model is tied to must
+    be its own (said before any job runs)."""
+    if config["gns"]["model"] != "shipped" or config["montecarlo"]["simulator"] != "gns":
+        return []
+    try:
+        check_serves(read_card(), config)
+    except ShippedModelError as error:
+        return [f"config key 'gns.model' = 'shipped': {error}"]
+    return []
+
+
+def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
+    """With the shipped end-state surrogate as the Monte Carlo's simulator, the keys it is tied to must be its own."""
+    from rgns.surrogates.endstate.card import check_serves as endstate_serves  # local: only needed here
+    from rgns.surrogates.endstate.card import outside_ranges
+
+    model = config["endstate"]["model"]
+    if config["montecarlo"]["simulator"] != "endstate" or model == "train":
+        return []
+    try:
+        card = read_card(MODELS, "endstate_card.json" if model == "shipped" else "endstate_general_card.json")
+        endstate_serves(card, config)
+    except ShippedModelError as error:
+        other = (
+            " — or endstate.model: general, the geometry-general model for any slope in a domain up to "
+            "80 x 20 m (rgns/models/endstate_general_card.md)"
+            if model == "shipped"
+            else ""
+        )
+        return [f"config key 'endstate.model' = {model!r}: {error}{other}"]
+    for line in outside_ranges(card, config, config["montecarlo"]["cases"]):
+        log.warning(line)
+    return []
+
+
+def _shipped_tuned_errors(config: dict[str, Any]) -> list[str]:
+    """With the shipped tuned end-state surrogate as the correction's control, its cases and keys must be this config's."""
+    from rgns.surrogates.endstate.tuned_card import check_tuned_serves  # local: only needed here
+
+    fidelity = config["montecarlo"]["fidelity"]
+    if not fidelity["paired"] or fidelity["cheap"] != "tuned" or config["endstate"]["tuned"]["model"] != "shipped":
+        return []
+    try:
+        check_tuned_serves(read_card(MODELS, "endstate_tuned_card.json"), config)
+    except ShippedModelError as error:
+        return [f"config key 'montecarlo.fidelity.cheap' = 'tuned': {error}"]
+    return []

@@ -45,10 +45,11 @@ def test_the_lead_names_the_route_of_each_case():
         "case2": "end-state surrogate alone, which failed its validation gate (below)",
         "site": "MPM (configured)",
     }
-    corrected = routes(["case1", "case2"], GATE, "endstate", {"case1": 32, "case2": 16})
+    corrected = routes(["case1", "case2", "site"], GATE, "endstate", {"case1": 32, "case2": 16, "site": 8})
     assert corrected == {
         "case1": "end-state surrogate, corrected by 32 MPM pairs",
         "case2": "end-state surrogate, corrected by 16 MPM pairs",
+        "site": "MPM (configured), corrected by 8 MPM pairs",
     }
     made = {
         "version": "0.1.0",
