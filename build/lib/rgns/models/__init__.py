@@ -1,1 +1,0 @@
-"""The GNS shipped with rgns: weights, card and learning curve (see card.md)."""
