@@ -10,10 +10,19 @@ def minutes(seconds: float) -> str:
     return f"{whole // 60} min {whole % 60:02d} s"
 
 
+def shown(x: float | None, digits: int = 2) -> str:
+    """A number to ``digits`` decimals, or 'open' where the runs leave it open (None)."""
+    return "open" if x is None else f"{x:.{digits}f}"
+
+
+def interval(entry: list[float | None], digits: int = 2) -> str:
+    """'[lo, hi]' of [value, lower, upper]."""
+    return f"[{shown(entry[1], digits)}, {shown(entry[2], digits)}]"
+
+
 def ends(entry: list[float | None], digits: int = 2) -> str:
     """'v m [lo, hi]' of [value, lower, upper] (an open end: 'open')."""
-    value, lower, upper = (("open" if x is None else f"{x:.{digits}f}") for x in entry)
-    return f"{value} m [{lower}, {upper}]"
+    return f"{shown(entry[0], digits)} m {interval(entry, digits)}"
 
 
 def bracketed(entry: list[float], digits: int = 3, sign: str = "") -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import statistics
 from typing import Any
 
-from evidence.formatting import ends, half, minutes, r2
+from evidence.formatting import ends, half, interval, minutes, r2
 from evidence.sources import result
 
 # issue 42's measurement of the default before its route changed (256 realizations gated to the MPM, 16 pairs)
@@ -142,11 +142,6 @@ def default_headline() -> str:
             f"(`{record['command']}` at {record['commit'][:7]}).",
         ]
     )
-
-
-def interval(entry: list[float | None]) -> str:
-    """'[lo, hi]' of [value, lower, upper] (an open end: 'open')."""
-    return "[" + ", ".join("open" if x is None else f"{x:.2f}" for x in entry[1:]) + "]"
 
 
 def site_run() -> str:

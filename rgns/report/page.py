@@ -275,7 +275,7 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
 
 
 def cautions(record: dict[str, Any], p: str | None, upper: float | None, mesh_step: float | None) -> list[str]:
-    """Why to read one number of the answer with care, in a few words ("" where nothing is known against it):
+    """Why to read one number of the answer with care, each reason in a few words (none where nothing is known against it):
     a best estimate by the MPM alone, a mean left at the accurate mesh, a tail distance whose mesh step is
     modelled (beyond the pairs, where fewer than one is expected past P), an interval these runs leave open."""
     said = []
@@ -302,8 +302,9 @@ def band_ends(curve: dict[str, Any], p: str, entry: dict[str, Any]) -> tuple[flo
 
 
 def interval_text(lower: Any, upper: Any, digits: int = 2) -> str:
-    """'[lower, upper]', an end the runs leave open written 'open'."""
-    return f"[{_number(lower, digits) if lower is not None else 'open'}, {_number(upper, digits) if upper is not None else 'open'}]"
+    """'[lower, upper]', an end the runs leave open (None) written 'open'."""
+    low, high = ("open" if end is None else _number(end, digits) for end in (lower, upper))
+    return f"[{low}, {high}]"
 
 
 def headline_rows(record: dict[str, Any]) -> tuple[list[dict[str, Any]], list[str]]:
@@ -355,21 +356,18 @@ def footnotes(notes: list[str]) -> str:
 def zone_band(zones: list[dict[str, Any]]) -> str:
     """The zones as a coloured band along the section: one block per zone, as wide as its extent, in its level's
     colour (the zoning figure's), labelled with its level and its ends."""
-    whole = max(zone["x_to_m"] for zone in zones) - min(zone["x_from_m"] for zone in zones)
+    start, end = min(zone["x_from_m"] for zone in zones), max(zone["x_to_m"] for zone in zones)
     blocks = []
     for zone in zones:
         width = zone["x_to_m"] - zone["x_from_m"]
         colour = ZONE_COLOURS[ZONE_LEVELS.index(zone["level"])]
         label = f"{zone['level']}: {zone['x_from_m']:.1f}–{zone['x_to_m']:.1f} m"
-        shown = html.escape(zone["level"]) if width / whole > 0.08 else ""
+        shown = html.escape(zone["level"]) if width / (end - start) > 0.08 else ""
         blocks.append(
             f'<div style="flex: {width:.4f}; background: {colour}" title="{html.escape(label)}">{shown}</div>'
         )
-    ends = (
-        f'<div class="axis"><span>x = {min(z["x_from_m"] for z in zones):g} m</span>'
-        f"<span>x = {max(z['x_to_m'] for z in zones):g} m</span></div>"
-    )
-    return f'<div class="zones">{"".join(blocks)}</div>{ends}'
+    axis = f'<div class="axis"><span>x = {start:g} m</span><span>x = {end:g} m</span></div>'
+    return f'<div class="zones">{"".join(blocks)}</div>{axis}'
 
 
 def folded(summary: str, *parts: str) -> str:
