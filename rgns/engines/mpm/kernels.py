@@ -5,7 +5,8 @@ is written out per particle, and the scatters sum each node's contributions in t
 ``scatter_add_`` over the flattened [K, P] slots (slot first, then particle), so a run agrees with the
 torch engine to rounding (torch's CPU ``sqrt`` is not always correctly rounded; numba's is). A call
 advances every realization of a batch by its own substeps of one frame, one realization after another
-(they never share a node), so no Python runs between substeps. Serial ``@njit(cache=True)``: no
+(they never share a node), so no Python runs between substeps. The grid is cleared and updated only over the
+box of rows and columns the particles reach (no other node is read). Serial ``@njit(cache=True)``: no
 threading layer beside torch's OpenMP, and a fresh process loads the compiled kernel from the cache
 (``__pycache__`` beside this file, or ``NUMBA_CACHE_DIR``).
 """
@@ -63,12 +64,13 @@ def _finite_or_zero(a: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy):
+def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy, box):
     """Slot ids and weights [K, P] of particles p0..p1 (shape.py's bases; ``grid`` as :func:`advance_frame`'s);
-    returns how many lie outside the region."""
+    ``box``: the first and last column and row of the nodes they reach; returns how many lie outside the region."""
     origin_x, origin_y, h, lower_x, lower_y = grid[0], grid[1], grid[2], grid[3], grid[4]
     nx, ny, mesh_nx, mesh_ny, inverse_h = int(grid[5]), int(grid[6]), int(grid[7]), int(grid[8]), grid[9]
     outside = 0
+    i_low, i_high, j_low, j_high = 1 << 30, -1, 1 << 30, -1
     for p in range(p0, p1):
         q = p - p0
         u = _per_h(x[p] - origin_x, h, inverse_h) - lower_x
@@ -80,6 +82,7 @@ def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy):
         if spline:
             wx0, wx1, wx2, dx0, dx1, dx2, i = _quadratic(u, nx)
             wy0, wy1, wy2, dy0, dy1, dy2, j = _quadratic(v, ny)
+            i_low, i_high, j_low, j_high = min(i_low, i), max(i_high, i + 2), min(j_low, j), max(j_high, j + 2)
             _spline_row(
                 0, (j + 0) * (nx + 2) + i, wy0, dy0, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy
             )
@@ -97,6 +100,8 @@ def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy):
             xi = _clamp(u - ci, 0.0, 1.0)
             eta = _clamp(v - cj, 0.0, 1.0)
             base = int(cj) * (mesh_nx + 1) + int(ci)
+            i_low, i_high = min(i_low, int(ci)), max(i_high, int(ci) + 1)
+            j_low, j_high = min(j_low, int(cj)), max(j_high, int(cj) + 1)
             nodes[0, q], nodes[1, q] = base, base + 1
             nodes[2, q], nodes[3, q] = base + mesh_nx + 2, base + mesh_nx + 1
             w[0, q] = (1 - xi) * (1 - eta)
@@ -107,6 +112,7 @@ def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy):
             gx[2, q], gx[3, q] = _per_h(eta, h, inverse_h), _per_h(-eta, h, inverse_h)
             gy[0, q], gy[1, q] = _per_h(xi - 1, h, inverse_h), _per_h(-xi, h, inverse_h)
             gy[2, q], gy[3, q] = _per_h(xi, h, inverse_h), _per_h(1 - xi, h, inverse_h)
+    box[0], box[1], box[2], box[3] = i_low, i_high, j_low, j_high
     return outside
 
 
@@ -311,23 +317,30 @@ def advance_frame(
     node_ay = np.empty(n_nodes)
     new_vx = np.empty(n_nodes)
     new_vy = np.empty(n_nodes)
+    box = np.empty(4, dtype=np.int64)
+    row = int(grid[5]) + 2 if spline else int(grid[7]) + 1  # DOFs in a row
     for b in range(len(substeps)):
         p0, p1 = starts[b], starts[b + 1]
         count = p1 - p0
         dt = dts[b]
         for _ in range(substeps[b]):
-            outside[b] += _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy)
+            outside[b] += _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy, box)
             # p2g: nodal mass and momentum, slot by slot as torch's scatter_add_
-            node_mass[:] = 0.0
-            force_x[:] = 0.0  # momentum first, forces later
-            force_y[:] = 0.0
+            for j in range(box[2], box[3] + 1):
+                for n in range(j * row + box[0], j * row + box[1] + 1):
+                    node_mass[n] = 0.0
+                    force_x[n] = 0.0  # momentum first, forces later
+                    force_y[n] = 0.0
             for s in range(slots):  # each array summed slot by slot, particle by particle
                 _scatter3(nodes[s], w[s], mass[p0:p1], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y)
-            for n in range(n_nodes):
-                inverse = 1.0 / node_mass[n] if node_mass[n] > MASS_TOLERANCE else 0.0
-                inverse_mass[n] = inverse
-                node_vx[n] = 0.0 if fixed_x[n] else force_x[n] * inverse
-                node_vy[n] = 0.0 if fixed_y[n] else force_y[n] * inverse
+            for j in range(box[2], box[3] + 1):
+                for n in range(j * row + box[0], j * row + box[1] + 1):
+                    inverse = 1.0 / node_mass[n] if node_mass[n] > MASS_TOLERANCE else 0.0
+                    inverse_mass[n] = inverse
+                    node_vx[n] = 0.0 if fixed_x[n] else force_x[n] * inverse
+                    node_vy[n] = 0.0 if fixed_y[n] else force_y[n] * inverse
+                    force_x[n] = 0.0
+                    force_y[n] = 0.0
             # strain increments from the nodal velocities (four sums, each over the slots in order)
             for q in range(count):
                 lxx = 0.0
@@ -364,32 +377,31 @@ def advance_frame(
                 stress[q, 0], stress[q, 1], stress[q, 2] = sxx[p], syy[p], txy[p]
                 stress[q, 3], stress[q, 4] = -volume[p], mass[p]
             # grid update: internal and gravity forces, made and summed slot by slot
-            force_x[:] = 0.0
-            force_y[:] = 0.0
             for s in range(slots):
                 _force_scatter(nodes[s], gx[s], gy[s], w[s], stress, count, gravity_x, gravity_y, force_x, force_y)
-            for n in range(n_nodes):
-                inverse = inverse_mass[n]
-                f_x, f_y = force_x[n], force_y[n]
-                if damping != 0.0:
-                    magnitude = damping * np.sqrt(f_x**2 + f_y**2)
-                    f_x, f_y = f_x - magnitude * _sign(node_vx[n]), f_y - magnitude * _sign(node_vy[n])
-                ax, ay = f_x * inverse, f_y * inverse
-                if floor[n] and ay < 0:
-                    limit = friction[n] * abs(ay)
-                    v0 = node_vx[n]
-                    if v0 != 0:
-                        moving = v0 + dt * ax
-                        ax = -v0 / dt if abs(moving) <= limit * dt else ax - _sign(moving) * limit
-                    else:
-                        ax = 0.0 if abs(ax) <= limit else ax - _sign(ax) * limit
-                if fixed_x[n]:
-                    ax = 0.0
-                if fixed_y[n]:
-                    ay = 0.0
-                node_ax[n], node_ay[n] = ax, ay
-                new_vx[n] = 0.0 if fixed_x[n] else node_vx[n] + dt * ax
-                new_vy[n] = 0.0 if fixed_y[n] else node_vy[n] + dt * ay
+            for j in range(box[2], box[3] + 1):
+                for n in range(j * row + box[0], j * row + box[1] + 1):
+                    inverse = inverse_mass[n]
+                    f_x, f_y = force_x[n], force_y[n]
+                    if damping != 0.0:
+                        magnitude = damping * np.sqrt(f_x**2 + f_y**2)
+                        f_x, f_y = f_x - magnitude * _sign(node_vx[n]), f_y - magnitude * _sign(node_vy[n])
+                    ax, ay = f_x * inverse, f_y * inverse
+                    if floor[n] and ay < 0:
+                        limit = friction[n] * abs(ay)
+                        v0 = node_vx[n]
+                        if v0 != 0:
+                            moving = v0 + dt * ax
+                            ax = -v0 / dt if abs(moving) <= limit * dt else ax - _sign(moving) * limit
+                        else:
+                            ax = 0.0 if abs(ax) <= limit else ax - _sign(ax) * limit
+                    if fixed_x[n]:
+                        ax = 0.0
+                    if fixed_y[n]:
+                        ay = 0.0
+                    node_ax[n], node_ay[n] = ax, ay
+                    new_vx[n] = 0.0 if fixed_x[n] else node_vx[n] + dt * ax
+                    new_vy[n] = 0.0 if fixed_y[n] else node_vy[n] + dt * ay
             # g2p: FLIP velocities (blended with PIC), positions with the new nodal velocities
             for q in range(count):
                 p = p0 + q
