@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import torch
-from mesh_levels import METRICS, exceeded_with, pipeline_settings, reference, run_file, run_settings, saved  # noqa: E402  (benchmarks/ is the script's own folder)
+from mesh_levels import CPU_RUNS, METRICS, exceeded_with, load_runs, pipeline_settings, reference, run_settings, saved  # noqa: E402  (benchmarks/ is the script's own folder)
 from scipy import stats
 
 from rgns.config import load_config
@@ -71,7 +71,8 @@ def cheap_table(config: dict, case: str, indices: np.ndarray) -> tuple[pd.DataFr
 
 def mpm_table(case: str, cell: float, indices: np.ndarray) -> pd.DataFrame:
     """mesh_levels' saved MPM rows of the realizations at ``cell``."""
-    return pd.DataFrame([json.loads(run_file(case, cell, int(i)).read_text()) for i in indices])
+    runs = load_runs(CPU_RUNS)
+    return pd.DataFrame([runs[case, cell, int(i)] for i in indices])
 
 
 def known_answers(values: dict[str, np.ndarray], order: list[float]) -> dict[str, float]:
@@ -263,7 +264,7 @@ def write(result: dict, path_md: Path) -> None:
         "# The fidelity chain on real runs: coverage and allocation",
         "",
         "`python benchmarks/chain_coverage.py` (method: its docstring). Population: the "
-        f"{result['population']} case-1 realizations of `benchmarks/results/mesh_levels/` at 1, 0.5 and 0.25 m, "
+        f"{result['population']} case-1 realizations of `benchmarks/results/mesh_levels_runs.jsonl` at 1, 0.5 and 0.25 m, "
         "with the tuned end-state surrogate on the same realizations. Order of the runout's mesh convergence: "
         f"{result['order'][1]} [{result['order'][0]}, {result['order'][2]}] (montecarlo.fidelity.mesh_order).",
         "",

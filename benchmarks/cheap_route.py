@@ -5,7 +5,7 @@
 Each model (``rgns/models/endstate*.pt``) runs realizations 0-127 of case 1 of the default config (its top-level
 seed) as the pipeline's Monte Carlo runs them (``CaseInputs.from_config``, ``run_realizations`` with simulator
 "endstate", one thread); the MPM's are the saved GPU runs of ``benchmarks/mesh_levels.py``
-(``benchmarks/results/mesh_levels_gpu``, the same realizations: checked here by particle count and mean friction
+(``benchmarks/results/mesh_levels_gpu_runs.jsonl``, the same realizations: checked here by particle count and mean friction
 against its 1 m runs). Per model and metric: the Pearson correlation with the 0.5 m MPM, R² of the model as a
 predictor of it, the mean bias (model - MPM) and the correlation with the 1 m MPM, each with a 95 % percentile
 paired bootstrap interval over the realizations (scipy.stats.bootstrap), on all 128 and on 64-127 alone.
@@ -69,7 +69,8 @@ def run_model(path: Path, config: dict, inputs: CaseInputs) -> tuple[dict[str, n
         model.predict([r.scene.positions for r in part], [r.friction_deg for r in part])
     network_s = (time.perf_counter() - start) / REALIZATIONS
     assert (table["status"] == "ok").all() and (table["index"] == np.arange(REALIZATIONS)).all()
-    same = [json.loads(ml.run_file("case1", 1.0, i).read_text()) for i in range(REALIZATIONS)]
+    runs = ml.load_runs(ml.GPU_RUNS)
+    same = [runs["case1", 1.0, i] for i in range(REALIZATIONS)]
     assert np.array_equal(table["n_particles"], [row["n_particles"] for row in same]), "not the MPM's realizations"
     assert np.allclose(table["friction_mean_deg"], [row["friction_mean_deg"] for row in same]), "not the same fields"
     return {k: table[k].to_numpy(float) for k in ml.METRICS}, {"pipeline": pipeline_s, "network": network_s}
@@ -82,7 +83,7 @@ def interval(entry: list[float], digits: int = 3) -> str:
 def main() -> None:
     torch.set_num_threads(1)
     began = time.perf_counter()
-    ml.RUNS = ml.OUT / "mesh_levels_gpu"
+    ml.RUNS = ml.GPU_RUNS
     config = load_config(REPO / "config" / "config.yaml")
     inputs = CaseInputs.from_config(config, "case1")
     indices, mpm, mpm_s = ml.saved("case1", [1.0, 0.5], REALIZATIONS)
@@ -142,7 +143,7 @@ def markdown(result: dict) -> str:
         "",
         f"`.venv/bin/python benchmarks/cheap_route.py` at commit {result['commit']} (method: its docstring); "
         f"{result['seconds_total']:.0f} s in all. Realizations 0-127 of case 1, default config (seed "
-        f"{result['seed']}); MPM: the GPU runs of `benchmarks/results/mesh_levels_gpu` at 0.5 and 1 m. Realizations "
+        f"{result['seed']}); MPM: the GPU runs of `benchmarks/results/mesh_levels_gpu_runs.jsonl` at 0.5 and 1 m. Realizations "
         f"0-{UNTOUCHED - 1} were the pool on which the tuned model was judged (`hifi_surrogate.md`); "
         f"{UNTOUCHED}-127 are untouched by any choice. R²: 1 - Σ(MPM - model)² / Σ(MPM - mean)², the model as a "
         "predictor of the 0.5 m MPM (its bias counts against it). Seconds per realization on one thread of a 2-core "

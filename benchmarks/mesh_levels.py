@@ -1,15 +1,16 @@
 """The embedded MPM's mesh error on the Monte Carlo's own realizations, with intervals.
 
-    python benchmarks/mesh_levels.py --run --cases case1 case3    # resumable: one file per run
+    python benchmarks/mesh_levels.py --run --cases case1 case3    # resumable: one line per run
     python benchmarks/mesh_levels.py                              # tables and plot from what is saved
 
 Each realization is the default config's Monte Carlo realization (the top-level seed), drawn as the
 pipeline's paired chunks draw it (``rgns.scene.realizations.accurate_case_inputs``: the same slope and the
 friction field on the 1 m grid at every mesh) and run as they run it (``run_realizations`` with the
-embedded MPM, screening included), at cells h = 1, 0.5, 0.25 m (``--cells``). Every run is saved alone
-to ``benchmarks/results/mesh_levels/<case>/h<h>/<index>.json`` as it finishes, so a killed run loses
-only the realization in progress; realizations run in index order, every level of one before the
-next, so the cases and levels stay paired whenever it stops.
+embedded MPM, screening included), at cells h = 1, 0.5, 0.25 m (``--cells``). Every run is appended as
+one line to ``benchmarks/results/mesh_levels_runs.jsonl`` (its row with its case, cell size and index:
+:func:`append_run`, :func:`load_runs`) as it finishes, so a killed run loses only the realization in progress
+(a line it cut short is left out by the reader and cut off by the next append); realizations run in index
+order, every level of one before the next, so the cases and levels stay paired whenever it stops.
 
 The report takes, per case and quantity (the means of R, V and I; the runout and influence exceeded
 with probability 0.5 and 0.1, the 1 - P quantiles over realizations; the indicators 1{R > r} at the runout
@@ -18,13 +19,15 @@ level, the observed order p = log2(|f_1 - f_0.5| / |f_0.5 - f_0.25|) of the mean
 f* = f_0.25 + (f_0.25 - f_0.5) / (2^p - 1) and the error of each level against it; each with a 95 %
 percentile bootstrap interval over realizations (scipy.stats.bootstrap, paired). Writes
 ``mesh_levels.md``, ``mesh_levels.json`` and ``mesh_levels.png`` into benchmarks/results/ (named after the runs'
-folder, ``--runs``).
+store, ``--runs``, less its ``_runs.jsonl``).
 """
 
 from __future__ import annotations
 
 import argparse
+import fcntl
 import json
+import os
 import subprocess
 import time
 from dataclasses import asdict, replace
@@ -49,17 +52,72 @@ from rgns.scene.realizations import accurate_case_inputs  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
-RUNS = OUT / "mesh_levels"  # the runs read and written; --runs rebinds it
-CPU_RUNS = OUT / "mesh_levels"  # the one-thread CPU runs, one realization at a time
+RUNS = OUT / "mesh_levels_runs.jsonl"  # the runs read and written; --runs rebinds it
+CPU_RUNS = OUT / "mesh_levels_runs.jsonl"  # the one-thread CPU runs, one realization at a time
+GPU_RUNS = OUT / "mesh_levels_gpu_runs.jsonl"  # case 1's runs in GPU batches of 64 (mesh_levels_gpu.md)
 METRICS = ("runout_m", "volume_m2", "influence_m")
 PROBABILITIES = (0.5, 0.1)
 RESAMPLES = 4000
 ASYMPTOTIC = (0.5, 3.0)  # an order inside this is taken as the asymptotic range (as benchmarks/convergence.py)
 
 
-def run_file(case: str, cell: float, index: int, root: Path | None = None) -> Path:
-    """Where one run is saved: under ``root``, RUNS by default."""
-    return (root or RUNS) / case / f"h{cell:g}" / f"{index:04d}.json"
+Key = tuple[str, float, int]  # a run's case, cell size (m) and realization index
+
+
+def complete_lines(text: str) -> list[str]:
+    """The lines of an append-only store's text, without their newlines; a last line without one (a write a
+    kill cut short) is left out."""
+    return text.split("\n")[:-1]
+
+
+def append_lines(path: Path, text: str, header: str = "") -> None:
+    """Append ``text`` (whole lines, each ending in a newline) to the store at ``path`` in one write, flushed to
+    disk, under an exclusive lock (several processes may append to one store); a last line a killed writer cut
+    short is cut off first, and ``header`` starts an empty store."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a+b") as store:
+        fcntl.flock(store, fcntl.LOCK_EX)  # released when the file closes, or its process dies
+        size = store.seek(0, os.SEEK_END)
+        if size:
+            store.seek(size - 1)
+            if store.read(1) != b"\n":
+                store.seek(0)
+                store.truncate(store.read().rfind(b"\n") + 1)
+        if store.seek(0, os.SEEK_END) == 0:
+            text = header + text
+        store.write(text.encode())
+        store.flush()
+        os.fsync(store.fileno())
+
+
+def parse_runs(text: str) -> dict[Key, dict]:
+    """The runs a store's text holds, by (case, cell size, index): each the row its run saved, less the case (the
+    last of a key saved twice)."""
+    runs: dict[Key, dict] = {}
+    for line in complete_lines(text):
+        row = json.loads(line)
+        runs[row.pop("case"), float(row["cell_size_m"]), int(row["index"])] = row
+    return runs
+
+
+def load_runs(path: Path) -> dict[Key, dict]:
+    """The runs saved in the store at ``path`` (none if it is absent): :func:`parse_runs`."""
+    return parse_runs(path.read_text()) if path.exists() else {}
+
+
+def append_run(path: Path, case: str, cell: float, index: int, row: dict) -> None:
+    """Save one run: its row, with its case, cell size and index, as one line appended to the store at ``path``."""
+    append_lines(path, json.dumps({"case": case} | row | {"cell_size_m": cell, "index": index}) + "\n")
+
+
+def indices_at(runs: dict[Key, dict], case: str, cell: float) -> set[int]:
+    """The realizations the runs hold of ``case`` at ``cell``."""
+    return {i for c, h, i in runs if c == case and h == cell}
+
+
+def report_name() -> str:
+    """The report's name: the runs' store's, less its ``_runs.jsonl`` (mesh_levels, mesh_levels_gpu)."""
+    return RUNS.name.removesuffix(".jsonl").removesuffix("_runs")
 
 
 def other_runs() -> bool:
@@ -98,22 +156,17 @@ def run(config: dict, cases: list[str], cells: list[float], realizations: int, f
         group = range(max(start, first), min(start + batch, realizations))
         for case in cases:
             for h in cells:
-                missing = [i for i in group if not run_file(case, h, i).exists()]
+                done = indices_at(load_runs(RUNS), case, h)
+                missing = [i for i in group if i not in done]
                 if not missing:
                     continue
                 began = time.perf_counter()
                 rows = run_realizations(inputs[case, h], missing, settings)
                 seconds = (time.perf_counter() - began) / len(missing)
                 for row in rows.to_dict("records"):
-                    path = run_file(case, h, int(row["index"]))
-                    path.parent.mkdir(parents=True, exist_ok=True)
                     record = {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
-                    path.write_text(
-                        json.dumps(
-                            record | {"seconds": seconds, "cell_size_m": h, "device": device, "batch": len(missing)},
-                            indent=1,
-                        )
-                    )
+                    extra = {"seconds": seconds, "cell_size_m": h, "device": device, "batch": len(missing)}
+                    append_run(RUNS, case, h, int(row["index"]), record | extra)
                 print(
                     f"{case} h {h:g} realizations {missing[0]}-{missing[-1]}: mean R {rows['runout_m'].mean():.2f} m, "
                     f"{seconds:.1f} s each",
@@ -126,9 +179,10 @@ def saved(
 ) -> tuple[np.ndarray, dict[str, np.ndarray], dict[float, float]]:
     """Indices every level ran (the first ``first`` of them, if given), the metrics [level, realization] per key,
     the mean seconds per level."""
-    found = [{int(p.stem) for p in (RUNS / case / f"h{h:g}").glob("*.json")} for h in cells]
+    runs = load_runs(RUNS)
+    found = [indices_at(runs, case, h) for h in cells]
     common = np.array(sorted(set.intersection(*found))[:first]) if found else np.array([], dtype=int)
-    rows = [[json.loads(run_file(case, h, i).read_text()) for i in common] for h in cells]
+    rows = [[runs[case, h, i] for i in common] for h in cells]
     values = {key: np.array([[row[key] for row in level] for level in rows], dtype=float) for key in METRICS}
     seconds = {h: float(np.mean([row["seconds"] for row in level])) for h, level in zip(cells, rows)}
     return common, values, seconds
@@ -179,7 +233,8 @@ def fit(values: np.ndarray, reduce=np.mean, seed: int = 0) -> dict:
 
 def devices(case: str, cells: list[float], indices: np.ndarray) -> set[str]:
     """The devices the saved runs ran on ("cpu" where a run does not say)."""
-    return {json.loads(run_file(case, h, i).read_text()).get("device", "cpu") for h in cells for i in indices}
+    runs = load_runs(RUNS)
+    return {runs[case, h, i].get("device", "cpu") for h in cells for i in indices}
 
 
 def cpu_agreement(case: str, cells: list[float]) -> tuple[list[str], list[dict]]:
@@ -188,19 +243,12 @@ def cpu_agreement(case: str, cells: list[float]) -> tuple[list[str], list[dict]]
     if not other_runs():
         return [], []
     rows, records = [], []
+    these, cpu = load_runs(RUNS), load_runs(CPU_RUNS)
     for h in cells:
-        both = sorted(
-            {int(p.stem) for p in (RUNS / case / f"h{h:g}").glob("*.json")}
-            & {int(p.stem) for p in (CPU_RUNS / case / f"h{h:g}").glob("*.json")}
-        )
+        both = sorted(indices_at(these, case, h) & indices_at(cpu, case, h))
         if not both:
             continue
-        pairs = np.array(
-            [
-                [json.loads(run_file(case, h, i, root).read_text())["runout_m"] for root in (RUNS, CPU_RUNS)]
-                for i in both
-            ]
-        )
+        pairs = np.array([[runs[case, h, i]["runout_m"] for runs in (these, cpu)] for i in both])
         difference = pairs[:, 0] - pairs[:, 1]
         records.append(
             {
@@ -228,7 +276,7 @@ def finest_check(case: str, cells: list[float], finest: float = 0.125) -> list[s
     coarser levels predict for the same realizations, and the order of the three finest levels."""
     levels = [*cells, finest]
     indices, values, seconds = saved(case, levels)
-    if len(indices) == 0 or not (RUNS / case / f"h{finest:g}").exists():
+    if len(indices) == 0:
         return []
     lines = [
         "",
@@ -354,7 +402,7 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
     for ax in axes:
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(OUT / f"{RUNS.name}.png", dpi=130)
+    fig.savefig(OUT / f"{report_name()}.png", dpi=130)
     plt.close(fig)
     if run_json is not None:
         against, compared = against_run(cases[0], cells, run_json)
@@ -366,8 +414,8 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
         "be trusted, and the interval says so by its width.",
         "",
     ]
-    (OUT / f"{RUNS.name}.md").write_text("\n".join(lines))
-    (OUT / f"{RUNS.name}.json").write_text(json.dumps(record, indent=1))
+    (OUT / f"{report_name()}.md").write_text("\n".join(lines))
+    (OUT / f"{report_name()}.json").write_text(json.dumps(record, indent=1))
     print("\n".join(lines))
 
 
@@ -606,7 +654,9 @@ def main() -> None:
     parser.add_argument("--first", type=int, default=0, help="the first realization to run (split across processes)")
     parser.add_argument("--batch", type=int, default=1, help="realizations per MPM batch (each at its own time step)")
     parser.add_argument("--device", default="cpu", help="the embedded MPM's torch device (cuda: a GPU)")
-    parser.add_argument("--runs", type=Path, default=RUNS, help="where the runs are saved and read")
+    parser.add_argument(
+        "--runs", type=Path, default=RUNS, help="the store (a JSON-lines file) the runs are appended to and read from"
+    )
     parser.add_argument("--no-report", action="store_true", help="run only (a worker among several)")
     parser.add_argument(
         "--resolved-config",
@@ -614,6 +664,8 @@ def main() -> None:
         help="the default config already validated, as JSON (a machine without Snakemake)",
     )
     args = parser.parse_args()
+    if args.runs.suffix != ".jsonl":  # a folder of one file per run, as before the store: not read
+        parser.error(f"--runs {args.runs}: the runs' store is one JSON-lines file, <name>_runs.jsonl")
     RUNS = args.runs.resolve()
     if args.run:
         torch.set_num_threads(1)

@@ -19,7 +19,7 @@ Population (SYNTHETIC, CALIBRATED ON REAL PAIRS; no GPU ran the 10,000 MPM pairs
   thread; benchmarks/cheap_route.py), cached in benchmarks/results/pair_coverage_cheap.npz;
 * MPM values: per metric (runout_m, volume_m2, influence_m), h_0.5 = a + b·cheap + e_0.5 and h_1 = c + d·cheap
   + e_1, the lines least-squares fits on the 128 real triples (cheap, MPM 0.5 m, MPM 1 m) of case 1's
-  realizations 0-127 (the GPU runs of benchmarks/mesh_levels.py, benchmarks/results/mesh_levels_gpu, with the
+  realizations 0-127 (the GPU runs of benchmarks/mesh_levels.py, benchmarks/results/mesh_levels_gpu_runs.jsonl, with the
   tuned model on the same realizations: cheap_route.run_model), and the residuals drawn jointly by bootstrap:
   one real realization per population member gives its (e_0.5, e_1) of every metric, so the residuals'
   correlation across meshes and across metrics holds. front_x_m = toe + runout and rear_x_m = crest −
@@ -38,7 +38,7 @@ N − 1), draws the pairs as rule paired_plan does, and estimates exactly as rul
 records per quantity the estimate, the interval at the order's point value (sampling alone: the converged
 mean's and the distances' ``interval_at_order`` as rule multifidelity records them) and the report's interval (the envelope over
 the order's interval), and the allocation ``correct`` gives (``rgns.fidelity.multifidelity.route``; costs: the
-0.5 m MPM's seconds per realization on one CPU thread, benchmarks/results/mesh_levels, and the tuned model's
+0.5 m MPM's seconds per realization on one CPU thread, benchmarks/results/mesh_levels_runs.jsonl, and the tuned model's
 timed here). Coverage: the share of replicates whose interval holds the answer, with its binomial SE; an
 interval open above whose lower end is at most the answer holds it (the plain MPM route leaves open the tail
 its pairs cannot bound: rgns.fidelity.outputs.open_unreached_tails); any other open
@@ -155,10 +155,11 @@ def population_cheap(config: dict, size: int) -> tuple[dict[str, np.ndarray], fl
 
 def real_triples(config: dict) -> dict[str, Any]:
     """The 128 real (cheap, MPM 0.5 m, MPM 1 m) values per column, the meshes' toe and crest."""
-    ml.RUNS = OUT / "mesh_levels_gpu"
+    ml.RUNS = ml.GPU_RUNS
     indices, _, _ = ml.saved(CASE, [1.0, 0.5], REAL)
     assert np.array_equal(indices, np.arange(REAL)), "the GPU runs lack realizations"
-    rows = {h: [json.loads(ml.run_file(CASE, h, int(i)).read_text()) for i in indices] for h in (0.5, 1.0)}
+    runs = ml.load_runs(ml.GPU_RUNS)
+    rows = {h: [runs[CASE, h, int(i)] for i in indices] for h in (0.5, 1.0)}
     cheap, _ = cheap_route.run_model(TUNED, config, CaseInputs.from_config(config, CASE))
     frame = {h: pd.DataFrame(level) for h, level in rows.items()}
     result: dict[str, Any] = {
@@ -173,9 +174,9 @@ def real_triples(config: dict) -> dict[str, Any]:
 
 
 def cpu_seconds(cell: float) -> float:
-    """The MPM's seconds per realization at ``cell`` on one CPU thread (benchmarks/results/mesh_levels)."""
-    paths = sorted((ml.CPU_RUNS / CASE / f"h{cell:g}").glob("*.json"))
-    return float(np.mean([json.loads(path.read_text())["seconds"] for path in paths]))
+    """The MPM's seconds per realization at ``cell`` on one CPU thread (benchmarks/results/mesh_levels_runs.jsonl)."""
+    runs = ml.load_runs(ml.CPU_RUNS)
+    return float(np.mean([runs[CASE, cell, i]["seconds"] for i in sorted(ml.indices_at(runs, CASE, cell))]))
 
 
 def pearson(x: np.ndarray, y: np.ndarray) -> float:
@@ -666,7 +667,7 @@ def write_report(result: dict, path: Path) -> None:
         f"are the tuned end-state surrogate's on case 1's realizations 0-{meta['population'] - 1} (run here as the "
         "pipeline runs it), the MPM values at 0.5 and 1 m a least-squares line of each on the cheap value plus "
         f"residuals bootstrapped jointly (per member one real realization's residuals of every metric at both meshes) "
-        f"from the {REAL} real triples of `benchmarks/results/mesh_levels_gpu` (realizations 0-{REAL - 1}). Method: the "
+        f"from the {REAL} real triples of `benchmarks/results/mesh_levels_gpu_runs.jsonl` (realizations 0-{REAL - 1}). Method: the "
         "docstring of `benchmarks/pair_coverage.py`.",
         "",
         POPULATION_TEXT[meta.get("population_kind", "finite")],
@@ -683,7 +684,7 @@ def write_report(result: dict, path: Path) -> None:
         f"MPM at {meta['design']['high_cell_size_m']} m, coarse partner at {meta['design']['coarse_cell_size_m']} m, "
         f"order of the runout {meta['design']['order'][1]} [{meta['design']['order'][0]}, {meta['design']['order'][2]}]"
         f", confidence {meta['design']['confidence']}. Costs given to the allocation: {meta['cost']['high_s']:.1f} s "
-        f"per 0.5 m MPM realization (one CPU thread, `benchmarks/results/mesh_levels`), {meta['cost']['low_s']:.4f} s "
+        f"per 0.5 m MPM realization (one CPU thread, `benchmarks/results/mesh_levels_runs.jsonl`), {meta['cost']['low_s']:.4f} s "
         "per cheap one (timed here).",
         "",
         "## Calibration on the real pairs",

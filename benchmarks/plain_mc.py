@@ -1,14 +1,16 @@
 """A plain MPM Monte Carlo of case 1: every realization by the MPM at the Monte Carlo's mesh, no surrogate.
 
-    python benchmarks/plain_mc.py --run --realizations 10000 --workers 2   # resumable: one table per chunk
+    python benchmarks/plain_mc.py --run --realizations 10000 --workers 2   # resumable: chunk by chunk
     python benchmarks/plain_mc.py --against <run>   # the report, beside a default run's answer at 1 m
 
 The paper's reference route ("over 400 days using a conventional MPM solver"), as a benchmark the default's
 multi-fidelity answer is checked against. Realizations 0 .. N - 1 of the default config's case 1, drawn as rule
 mc_chunk draws them, run by the embedded MPM at the Monte Carlo's mesh (1 m) with the pipeline's Monte Carlo
 settings (screening, early stop, end frames), one thread per worker process. Each chunk of ``--chunk``
-realizations is saved as it finishes (``benchmarks/results/plain_mc/chunk_<first>.csv``, with its wall seconds),
-so a killed run loses only the chunks in progress. The report: the realizations done, their summed job seconds
+realizations is appended to ``benchmarks/results/plain_mc_runs.csv`` as it finishes (its rows, with its wall
+seconds and its first realization, ``chunk``; a line a kill cut short is left out by the reader and cut off by the
+next append), so a killed run loses only the chunks in progress and resumes with the realizations missing; each
+run's wall time is kept in ``benchmarks/results/plain_mc_walls.json``. The report: the realizations done, their summed job seconds
 and the wall time of the runs that made them; mean R and the runouts exceeded with probability 0.5 / 0.1 / 0.01
 with 95 % percentile bootstrap intervals (scipy.stats.bootstrap), beside a default run's answer at the same mesh
 (``--against``, the run's directory): its 32 pairs' partners at 1 m corrected with its cheap route over all 10,000,
@@ -21,6 +23,7 @@ mesh, which a 1 m Monte Carlo cannot check (it is longer by the mesh step). Writ
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import subprocess
 import sys
@@ -35,7 +38,7 @@ from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the evidence package
-from mesh_levels import run_settings  # noqa: E402
+from mesh_levels import append_lines, complete_lines, run_settings  # noqa: E402
 
 from evidence.formatting import ends  # noqa: E402
 from rgns.config import load_config  # noqa: E402
@@ -47,12 +50,34 @@ from rgns.provenance import commit  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "benchmarks" / "results"
-CHUNKS = RESULTS / "plain_mc"
+STORE = RESULTS / "plain_mc_runs.csv"  # every realization run: each chunk's rows appended as it finishes
+WALLS = RESULTS / "plain_mc_walls.json"  # each run's wall time up to its last finished chunk
 PROBABILITIES = (0.5, 0.1, 0.01)
 
 
-def run_chunk(first: int, count: int) -> Path:
-    """Realizations ``first`` .. ``first + count - 1`` by the MPM at 1 m, saved with the chunk's wall seconds."""
+def load_rows(path: Path = STORE) -> pd.DataFrame:
+    """The realizations the store holds, in index order (the last row of one saved twice); a last line a kill
+    cut short is left out."""
+    lines = complete_lines(path.read_text()) if path.exists() else []
+    if not lines:
+        return pd.DataFrame({"index": pd.Series(dtype=int)})
+    table = pd.read_csv(io.StringIO("\n".join(lines) + "\n"))
+    return table.drop_duplicates("index", keep="last").sort_values("index", kind="stable", ignore_index=True)
+
+
+def append_chunk(table: pd.DataFrame, path: Path = STORE) -> None:
+    """A chunk's rows appended to the store in one write (the header first into an empty store)."""
+    header, rows = table.to_csv(index=False, lineterminator="\n").split("\n", 1)
+    if path.exists() and path.stat().st_size:
+        with path.open() as store:
+            if store.readline() != header + "\n":
+                raise ValueError(f"{path}: its columns are not {header}")
+    append_lines(path, rows, header=header + "\n")
+
+
+def run_chunk(indices: list[int]) -> str:
+    """Realizations ``indices`` by the MPM at 1 m, appended to the store with the chunk's wall seconds and its
+    first realization."""
     import torch
 
     from rgns.montecarlo.runs import CaseInputs, run_realizations
@@ -62,29 +87,29 @@ def run_chunk(first: int, count: int) -> Path:
     config = load_config(REPO / "config" / "config.yaml")
     inputs = CaseInputs.from_params(asdict(accurate_case_inputs(config, "case1", config["mesh"]["cell_size_m"])))
     began = time.perf_counter()
-    table = run_realizations(inputs, list(range(first, first + count)), run_settings(config))
+    table = run_realizations(inputs, indices, run_settings(config))
     table["chunk_seconds"] = time.perf_counter() - began
-    path = CHUNKS / f"chunk_{first:05d}.csv"
-    table.to_csv(path.with_suffix(".tmp"), index=False)
-    path.with_suffix(".tmp").replace(path)
-    return path
+    table["chunk"] = indices[0]
+    append_chunk(table)
+    return f"realizations {indices[0]}-{indices[-1]}"
 
 
 def run(realizations: int, chunk: int, workers: int) -> None:
-    """Every missing chunk up to ``realizations``, ``workers`` processes side by side; the run's wall time so far is
-    saved in ``runs.json`` as each chunk finishes, so a killed run keeps its time too."""
-    CHUNKS.mkdir(parents=True, exist_ok=True)
-    missing = [f for f in range(0, realizations, chunk) if not (CHUNKS / f"chunk_{f:05d}.csv").exists()]
-    runs_file = CHUNKS / "runs.json"
-    runs = json.loads(runs_file.read_text()) if runs_file.exists() else []
+    """The missing realizations of every chunk up to ``realizations``, ``workers`` processes side by side; the run's
+    wall time so far is saved in ``plain_mc_walls.json`` as each chunk finishes, so a killed run keeps its time too."""
+    done = set(load_rows()["index"])
+    chunks = [range(first, min(first + chunk, realizations)) for first in range(0, realizations, chunk)]
+    missing = [todo for todo in ([i for i in share if i not in done] for share in chunks) if todo]
+    runs = json.loads(WALLS.read_text()) if WALLS.exists() else []
     this = {"commit": commit(), "chunks": 0, "workers": workers, "wall_s": 0.0}
     runs.append(this)
     began = time.perf_counter()
     with ProcessPoolExecutor(workers) as pool:
-        for done, path in enumerate(pool.map(run_chunk, missing, [chunk] * len(missing)), start=1):
-            this |= {"chunks": done, "wall_s": time.perf_counter() - began}
-            runs_file.write_text(json.dumps(runs, indent=1) + "\n")
-            print(f"{path.name}: {done} of {len(missing)} chunks, {this['wall_s']:.0f} s", flush=True)
+        for finished, label in enumerate(pool.map(run_chunk, missing), start=1):
+            this |= {"chunks": finished, "wall_s": time.perf_counter() - began}
+            WALLS.with_suffix(".tmp").write_text(json.dumps(runs, indent=1) + "\n")
+            WALLS.with_suffix(".tmp").replace(WALLS)
+            print(f"{label}: {finished} of {len(missing)} chunks, {this['wall_s']:.0f} s", flush=True)
 
 
 def interval(values: np.ndarray, statistic) -> list[float]:
@@ -95,11 +120,10 @@ def interval(values: np.ndarray, statistic) -> list[float]:
 
 def report(against: Path | None) -> dict:
     """The plain Monte Carlo's estimates so far, beside the default run's at the same mesh."""
-    chunks = [pd.read_csv(path) for path in sorted(CHUNKS.glob("chunk_*.csv"))]
-    table = pd.concat(chunks, ignore_index=True)
+    table = load_rows()
+    chunks = [rows for _, rows in table.groupby("chunk", sort=True)]  # each chunk's rows, by its first realization
     runout = table["runout_m"].to_numpy(dtype=float)
-    runs_file = CHUNKS / "runs.json"  # each run's wall time up to its last finished chunk
-    runs = json.loads(runs_file.read_text()) if runs_file.exists() else []
+    runs = json.loads(WALLS.read_text()) if WALLS.exists() else []  # each run's wall time up to its last chunk
     record: dict = {
         "command": "python benchmarks/plain_mc.py --run --realizations 10000 --workers 2, "
         "then python benchmarks/plain_mc.py --against <run> (a default run: benchmarks/fresh_run.py --keep <run>)",

@@ -88,7 +88,7 @@ def tuned_untouched() -> str:
         f"Case 1, realizations {first}–{last} of seed {record['seed']} (the default Monte Carlo's), which no training "
         "or choice of this model touched (0–63 were the pool it was judged on), against the MPM at 0.5 m cells "
         "measured on the MPM's own points, as every report's pairs are (made on a GPU: "
-        "`benchmarks/results/mesh_levels_gpu`), with 95 % bootstrap intervals over the "
+        "`benchmarks/results/mesh_levels_gpu_runs.jsonl`), with 95 % bootstrap intervals over the "
         f"{int(last) - int(first) + 1} realizations; `{record['command']}` at {record['commit']}. In distribution: "
         "the family and field the model was tuned on, fresh realizations. The correction removes any bias; the "
         "correlation sets its gain.",

@@ -208,8 +208,9 @@ def gpu_levels() -> str:
         f"{' + '.join(format(cpu['seconds'][h], '.0f') for h in cells)} s on one CPU thread of the 2-core machine; the runout "
         f"agrees with the one-thread CPU runs on the {agreement[0]['n']} realizations both ran to "
         f"{100 * worst['largest_m']:.1f} cm at most (at {worst['cell_size_m']:g} m), {100 * mean:.2f} cm on average "
-        f"(`benchmarks/results/mesh_levels_gpu.md`). That folder holds the first {len(gpu['realizations'])} "
-        f"realizations at every mesh; the orders they give, as `mesh_order` would take them: {orders}."
+        f"(`benchmarks/results/mesh_levels_gpu.md`). Its store, `mesh_levels_gpu_runs.jsonl`, holds the first "
+        f"{len(gpu['realizations'])} realizations at every mesh; the orders they give, as `mesh_order` would take "
+        f"them: {orders}."
     )
 
 
