@@ -1,10 +1,12 @@
-"""CSV tables written atomically and read back with a clear error naming the file."""
+"""CSV tables written atomically and read back with a clear error naming the file; tables as Markdown."""
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from rgns.atomic import atomic_path
@@ -57,3 +59,22 @@ def read_chunk(path: str | Path, expected: list[int], columns: list[str] | None 
             "montecarlo config); delete it and run again"
         )
     return table
+
+
+def _markdown_cell(value: object, digits: int) -> str:
+    """One table cell: floats to ``digits`` decimals, NaN as an en dash, pipes escaped."""
+    if isinstance(value, (float, np.floating)):
+        return "–" if math.isnan(value) else f"{value:.{digits}f}"
+    return str(value).replace("|", "\\|")
+
+
+def markdown_table(table: pd.DataFrame, digits: int = 3) -> str:
+    """GitHub Markdown table of ``table``; numeric columns right-aligned."""
+    numeric = [pd.api.types.is_numeric_dtype(table[column]) for column in table.columns]
+    lines = [
+        "| " + " | ".join(str(column) for column in table.columns) + " |",
+        "| " + " | ".join("---:" if is_number else "---" for is_number in numeric) + " |",
+    ]
+    for row in table.itertuples(index=False):
+        lines.append("| " + " | ".join(_markdown_cell(value, digits) for value in row) + " |")
+    return "\n".join(lines) + "\n"

@@ -125,7 +125,12 @@ def _stop_running(timeout_s: float = 30.0) -> None:
 
 
 def down(base: Path) -> None:
-    """Stop slurmd and slurmctld by their PID files (munged is left for the next start)."""
+    """Stop slurmd and slurmctld by their PID files (munged is left for the next start) and take back the link
+    to this cluster's config: left behind, every later ``scontrol`` (the SLURM executor plugin calls it when
+    any snakemake starts) waits 9 s for the stopped controller."""
+    conf = base.resolve() / "slurm.conf"
+    if SYSTEM_CONF.is_symlink() and SYSTEM_CONF.resolve() == conf:
+        SYSTEM_CONF.unlink()
     for name in ("slurmd", "slurmctld"):
         pid_file = base.resolve() / "run" / f"{name}.pid"
         if pid_file.exists():

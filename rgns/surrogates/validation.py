@@ -192,25 +192,6 @@ def validation_table(agreements: dict[str, list[Agreement]]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=columns)
 
 
-def _markdown_cell(value: object, digits: int) -> str:
-    """One table cell: floats to ``digits`` decimals, NaN as an en dash, pipes escaped."""
-    if isinstance(value, (float, np.floating)):
-        return "–" if math.isnan(value) else f"{value:.{digits}f}"
-    return str(value).replace("|", "\\|")
-
-
-def markdown_table(table: pd.DataFrame, digits: int = 3) -> str:
-    """GitHub Markdown table of ``table``; numeric columns right-aligned."""
-    numeric = [pd.api.types.is_numeric_dtype(table[column]) for column in table.columns]
-    lines = [
-        "| " + " | ".join(str(column) for column in table.columns) + " |",
-        "| " + " | ".join("---:" if is_number else "---" for is_number in numeric) + " |",
-    ]
-    for row in table.itertuples(index=False):
-        lines.append("| " + " | ".join(_markdown_cell(value, digits) for value in row) + " |")
-    return "\n".join(lines) + "\n"
-
-
 def best_median_worst(pairs: pd.DataFrame) -> dict[str, int]:
     """Realization ``index`` of the lowest, median (position len//2) and highest final-position MSE among ok rows."""
     ok = ok_rows(pairs).sort_values("final_position_mse_m2", kind="mergesort")

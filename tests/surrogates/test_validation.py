@@ -14,11 +14,11 @@ from rgns.surrogates.validation import (
     agreement,
     best_median_worst,
     case_agreement,
-    markdown_table,
     r_squared,
     validation_table,
 )
 from rgns.surrogates.validation_plots import plot_energy_evolution, plot_histograms, plot_parity
+from rgns.tables import markdown_table
 
 MPM_RUNOUT_M = np.array([10.0, 12.0, 15.0, 11.0, 20.0, 18.0, 13.0, 16.0])
 

@@ -8,9 +8,9 @@ import numpy as np
 
 from rgns.logsetup import log_to_file
 from rgns.surrogates.gate import SURROGATE_NAMES, judge, write_verdicts
-from rgns.surrogates.validation import best_median_worst, case_agreement, markdown_table, ok_rows, validation_table
+from rgns.surrogates.validation import best_median_worst, case_agreement, ok_rows, validation_table
 from rgns.surrogates.validation_plots import plot_energy_evolution, plot_histograms, plot_parity
-from rgns.tables import read_csv, write_csv
+from rgns.tables import markdown_table, read_csv, write_csv
 
 log = log_to_file(snakemake.log[0])
 settings = snakemake.params.validation

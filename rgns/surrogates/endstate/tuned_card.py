@@ -14,7 +14,7 @@ import pandas as pd
 
 from rgns.surrogates.endstate.card import served
 from rgns.surrogates.shipped import ShippedModelError, data_fingerprint, refuse_unserved
-from rgns.surrogates.validation import markdown_table
+from rgns.tables import markdown_table
 
 SETTING = "endstate.tuned.model"
 
