@@ -45,6 +45,7 @@ import torch  # noqa: E402
 from rgns.config import load_config  # noqa: E402
 from rgns.engines.batch import simulate_mpm  # noqa: E402
 from rgns.engines.metrics import MetricSettings  # noqa: E402
+from rgns.engines.settings import MpmSettings  # noqa: E402
 from rgns.montecarlo.runs import measure  # noqa: E402
 from rgns.provenance import commit  # noqa: E402
 from rgns.scene.geometry import Scene, seed_particles  # noqa: E402
@@ -61,13 +62,13 @@ LONG_SLOPE = np.array([[0.0, 0.0], [36.0, 0.0], [24.0, 10.0], [0.0, 10.0]])
 COLUMN = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 8.0], [0.0, 8.0]])
 
 
-def mpm_settings(config: dict, shape: str, **changes) -> dict:
+def mpm_settings(config: dict, shape: str, **changes) -> MpmSettings:
     """The config's mpm section with the shape function and any other key changed."""
     mpm = copy.deepcopy(config["mpm"])
     mpm["embedded"]["shape_function"] = shape
     for key, value in changes.items():
         (mpm["embedded"] if key in mpm["embedded"] else mpm)[key] = value
-    return mpm
+    return MpmSettings.from_config(mpm)
 
 
 def slope_inputs(config: dict, cell_size_m: float, particles_per_cell: int | None = None) -> CaseInputs:
@@ -107,9 +108,11 @@ def uniform(
     return Realization(index, scene, np.full(len(positions), friction_deg))
 
 
-def simulate(config: dict, batch: list[Realization], mpm: dict, duration_s: float) -> tuple[list[dict], float, list]:
+def simulate(
+    config: dict, batch: list[Realization], mpm: MpmSettings, duration_s: float
+) -> tuple[list[dict], float, list]:
     """Table rows of a batch run of the embedded engine, its wall time per realization, and the results."""
-    frames = frame_count(duration_s, mpm["frame_interval_s"])
+    frames = frame_count(duration_s, mpm.frame_interval_s)
     start = time.perf_counter()
     simulated = simulate_mpm(batch, mpm, frames, keep="ends")
     seconds = (time.perf_counter() - start) / len(batch)
@@ -118,9 +121,9 @@ def simulate(config: dict, batch: list[Realization], mpm: dict, duration_s: floa
             r,
             s,
             MetricSettings(**config["metrics"]),
-            mpm["density_kg_m3"],
-            mpm["frame_interval_s"],
-            mpm["gravity_m_s2"],
+            mpm.density_kg_m3,
+            mpm.frame_interval_s,
+            mpm.gravity_m_s2,
         )
         for r, s in zip(batch, simulated)
     ]

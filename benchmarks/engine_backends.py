@@ -59,9 +59,9 @@ def one_run(config: dict, cell: float, backend: str) -> dict:
         realization,
         Simulated(result.positions, result.status),
         settings.metrics,
-        settings.mpm["density_kg_m3"],
+        settings.mpm.density_kg_m3,
         settings.frame_interval_s,
-        settings.mpm["gravity_m_s2"],
+        settings.mpm.gravity_m_s2,
     )
     return {
         "seconds": seconds,
@@ -97,13 +97,15 @@ from dataclasses import asdict
 began = time.perf_counter()
 from rgns.config import load_config
 from rgns.engines.batch import run_mpm
+from rgns.engines.settings import MpmSettings
 from rgns.montecarlo.runs import CaseInputs
 from rgns.scene.realizations import accurate_case_inputs, draw_realization
 config = load_config("config/config.yaml")
 inputs = CaseInputs.from_params(asdict(accurate_case_inputs(config, "case1", 1.0)))
 realization = draw_realization(inputs, 0)
+mpm = MpmSettings.from_config(config["mpm"])
 ready = time.perf_counter()
-run_mpm([realization], config["mpm"], 2, keep="ends")
+run_mpm([realization], mpm, 2, keep="ends")
 print(time.perf_counter() - ready)
 """
 

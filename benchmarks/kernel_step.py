@@ -14,7 +14,6 @@ and the largest difference of any particle array from the shipped kernel's after
 from __future__ import annotations
 
 import argparse
-import copy
 import importlib.util
 import sys
 import time
@@ -29,6 +28,7 @@ from rgns.config import load_config
 from rgns.engines.batch import run_mpm
 from rgns.engines.mpm import frame_kernels
 from rgns.engines.mpm import kernels as shipped
+from rgns.engines.settings import MpmSettings
 from rgns.montecarlo.runs import CaseInputs
 from rgns.scene.realizations import accurate_case_inputs, draw_realization
 
@@ -48,7 +48,7 @@ def captured_state(cells: float, frames: int) -> tuple[frame_kernels.FrameKernel
 
     frame_kernels.FrameKernels.advance = capture  # type: ignore[method-assign]
     try:
-        run_mpm([draw_realization(inputs, 0)], copy.deepcopy(config["mpm"]), frames, keep="ends")
+        run_mpm([draw_realization(inputs, 0)], MpmSettings.from_config(config["mpm"]), frames, keep="ends")
     finally:
         frame_kernels.FrameKernels.advance = advance  # type: ignore[method-assign]
     return captured["state"]

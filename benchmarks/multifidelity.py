@@ -42,6 +42,7 @@ from suite import case_inputs, measured  # noqa: E402  (benchmarks/suite.py: the
 
 from rgns.config import load_config  # noqa: E402
 from rgns.engines.batch import simulate_mpm  # noqa: E402
+from rgns.engines.settings import MpmSettings  # noqa: E402
 from rgns.fidelity.multifidelity import (
     optimal_ratio,
     point_estimate,
@@ -74,10 +75,10 @@ def run_chunk(indices: list[int]) -> dict[str, tuple[list[dict], float]]:
     config = load_config(REPO / "config" / "config.yaml")
     out = {}
     for name, (cell_size_m, embedded) in MPM_ROUTES.items():
-        mpm = {**config["mpm"], "embedded": {**config["mpm"].get("embedded", {}), **embedded}}
+        mpm = MpmSettings.from_config(config["mpm"] | {"embedded": config["mpm"]["embedded"] | embedded})
         batch = [draw_realization(case_inputs(config, "case1", cell_size_m), i) for i in indices]
         start = time.perf_counter()
-        simulated = simulate_mpm(batch, mpm, frame_count(mpm["duration_s"], mpm["frame_interval_s"]), keep="ends")
+        simulated = simulate_mpm(batch, mpm, frame_count(mpm.duration_s, mpm.frame_interval_s), keep="ends")
         seconds = time.perf_counter() - start
         rows = measured(batch, simulated, config)
         out[name] = (

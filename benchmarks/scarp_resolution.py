@@ -31,6 +31,7 @@ import torch
 from rgns.config import load_config
 from rgns.engines.batch import simulate_mpm
 from rgns.engines.metrics import DISPLACEMENT_THRESHOLD_M, crest_x, influence_distance
+from rgns.engines.settings import MpmSettings
 from rgns.montecarlo.runs import simulate_endstate
 from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.surrogates.endstate.model import load_model
@@ -75,9 +76,9 @@ def run(case: str, indices: list[int], baseline_cfl: float) -> list[tuple[tuple[
     spacing = config["mesh"]["cell_size_m"] / config["mesh"]["particles_per_cell"]
     frames = frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])
     batch = [draw_realization(inputs, i) for i in indices]
-    mpm = simulate_mpm(batch, config["mpm"], frames, keep="ends")
+    mpm = simulate_mpm(batch, MpmSettings.from_config(config["mpm"]), frames, keep="ends")
     model = simulate_endstate(load_model(REPO / "rgns" / "models" / "endstate.pt"), batch)
-    other = simulate_mpm(batch, config["mpm"] | {"cfl": baseline_cfl}, frames, keep="ends")
+    other = simulate_mpm(batch, MpmSettings.from_config(config["mpm"] | {"cfl": baseline_cfl}), frames, keep="ends")
     rows = []
     for realization, truth, guess, again in zip(batch, mpm, model, other):
         if truth.status != "ok" or again.status != "ok":

@@ -56,6 +56,7 @@ from rgns.engines.batch import simulate_mpm
 from rgns.engines.cbgeo.runner import MPMDiverged, run_cbgeo, trajectory_from_cbgeo  # noqa: E402
 from rgns.engines.cbgeo.writer import write_case  # noqa: E402
 from rgns.engines.metrics import MetricSettings  # noqa: E402
+from rgns.engines.settings import MpmSettings  # noqa: E402
 from rgns.montecarlo.runs import (
     Simulated,
     factor_of_safety,
@@ -118,10 +119,9 @@ def errors(rows: list[dict], reference: list[dict]) -> dict:
     return out
 
 
-def mpm_settings(config: dict, **embedded) -> dict:
-    mpm = copy.deepcopy(config["mpm"])
-    mpm["embedded"].update(embedded)
-    return mpm
+def mpm_settings(config: dict, **embedded) -> MpmSettings:
+    mpm = MpmSettings.from_config(config["mpm"])
+    return replace(mpm, embedded=replace(mpm.embedded, **embedded))
 
 
 def run_mpm_route(config: dict, cell_size_m: float, n: int, frames: int, **embedded) -> tuple[list[dict], float]:
@@ -135,7 +135,7 @@ def run_gns_route(config: dict, model: Path, n: int, frames: int, rollout: Rollo
     simulator = load_simulator(model).eval()
     batch = [draw_realization(case_inputs(config, "case1", config["mesh"]["cell_size_m"]), i) for i in range(n)]
     start = time.perf_counter()
-    simulated = simulate_gns(simulator, batch, config["mpm"], frames, "cpu", rollout)
+    simulated = simulate_gns(simulator, batch, MpmSettings.from_config(config["mpm"]), frames, "cpu", rollout)
     return measured(batch, simulated, config), (time.perf_counter() - start) / n
 
 
@@ -195,11 +195,12 @@ def screen_benchmark(config: dict, n: int, frames: int, friction_mean_deg: float
     inputs = case_inputs(config, "case1", config["mesh"]["cell_size_m"], friction_mean_deg)
     batch = [draw_realization(inputs, i) for i in range(n)]
     settings = ScreenSettings(**(config["montecarlo"]["screen"] | {"enabled": True}))
+    mpm = MpmSettings.from_config(config["mpm"])
     start = time.perf_counter()
-    safety = [factor_of_safety(r, config["mpm"], settings) for r in batch]
+    safety = [factor_of_safety(r, mpm, settings) for r in batch]
     screen_s = (time.perf_counter() - start) / n
     start = time.perf_counter()
-    rows = measured(batch, simulate_mpm(batch, config["mpm"], frames, keep="ends"), config)
+    rows = measured(batch, simulate_mpm(batch, mpm, frames, keep="ends"), config)
     mpm_s = (time.perf_counter() - start) / n
     skipped = [settings.skips(fs) for fs in safety]
     false_skips = [row["index"] for row, skip in zip(rows, skipped) if skip and row.get("runout_m", 0.0) > 0.0]

@@ -4,11 +4,11 @@ training data and their validation all run, so it sits with the engines, not wit
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from rgns.engines.mpm.solver import EngineSettings, RunResult, run_batch
+from rgns.engines.mpm.solver import RunResult, run_batch
+from rgns.engines.settings import MpmSettings
 from rgns.scene.build import case_from_scene
 from rgns.scene.realizations import Realization
 
@@ -21,13 +21,13 @@ class Simulated:
     status: str
 
 
-def run_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, keep: str = "all") -> list[RunResult]:
+def run_mpm(batch: list[Realization], mpm: MpmSettings, frames: int, keep: str = "all") -> list[RunResult]:
     """``frames`` frames of the embedded MPM engine, on the realizations' cases built in memory."""
-    cases = [case_from_scene(r.scene, r.friction_deg, mpm) for r in batch]
-    duration_s = (frames - 1) * mpm["frame_interval_s"]
-    return run_batch(cases, EngineSettings.from_config(mpm["embedded"]), duration_s, mpm["frame_interval_s"], keep=keep)
+    cases = [case_from_scene(r.scene, r.friction_deg, mpm.case) for r in batch]
+    duration_s = (frames - 1) * mpm.frame_interval_s
+    return run_batch(cases, mpm.embedded, duration_s, mpm.frame_interval_s, keep=keep)
 
 
-def simulate_mpm(batch: list[Realization], mpm: dict[str, Any], frames: int, keep: str = "all") -> list[Simulated]:
+def simulate_mpm(batch: list[Realization], mpm: MpmSettings, frames: int, keep: str = "all") -> list[Simulated]:
     """Run a batch through the embedded MPM engine, keeping ``keep`` frames ("all" or "ends")."""
     return [Simulated(result.positions, result.status) for result in run_mpm(batch, mpm, frames, keep)]

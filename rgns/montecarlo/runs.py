@@ -32,6 +32,7 @@ import pandas as pd
 
 from rgns.engines.batch import Simulated, run_mpm, simulate_mpm
 from rgns.engines.metrics import MetricSettings, crest_x, normalized_energies, runout_metrics
+from rgns.engines.settings import MpmSettings
 from rgns.montecarlo.screening import ScreenSettings, minimum_factor_of_safety
 from rgns.montecarlo.tables import COLUMNS
 from rgns.scene.realizations import (
@@ -59,7 +60,7 @@ class MonteCarloError(ValueError):
 def simulate_gns(
     simulator: LearnedSimulator,
     batch: list[Realization],
-    mpm: dict[str, Any],
+    mpm: MpmSettings,
     frames: int,
     device: str = "cpu",
     rollout: RolloutSettings | None = None,
@@ -90,7 +91,7 @@ def screened(realization: Realization) -> Simulated:
     return Simulated(np.stack([positions] * 3), "screened")
 
 
-def factor_of_safety(realization: Realization, mpm: dict[str, Any], settings: ScreenSettings) -> float:
+def factor_of_safety(realization: Realization, mpm: MpmSettings, settings: ScreenSettings) -> float:
     """Minimum Bishop factor of safety of a realization with the MPM's soil."""
     scene = realization.scene
     return minimum_factor_of_safety(
@@ -98,8 +99,8 @@ def factor_of_safety(realization: Realization, mpm: dict[str, Any], settings: Sc
         scene.positions,
         realization.friction_deg,
         scene.cell_size_m,
-        mpm["density_kg_m3"] * mpm["gravity_m_s2"],
-        mpm["cohesion_pa"],
+        mpm.density_kg_m3 * mpm.gravity_m_s2,
+        mpm.cohesion_pa,
         settings,
         domain_length_m=scene.domain_length_m,
     ).factor_of_safety
@@ -142,7 +143,7 @@ class RunSettings:
     frames: int
     frame_interval_s: float
     metrics: MetricSettings
-    mpm: dict[str, Any]
+    mpm: MpmSettings
     device: str = "cpu"
     keep_frames: str = "ends"
     rollout: RolloutSettings | None = None
@@ -150,18 +151,19 @@ class RunSettings:
 
     @classmethod
     def from_params(cls, params: dict[str, Any]) -> RunSettings:
-        section, mpm = params["montecarlo"], params["mpm"]
-        duration_s = section["duration_s"] or mpm["duration_s"]
+        """The settings of a rule's params: the plain sections ``montecarlo``, ``mpm`` and ``metrics``."""
+        section, mpm = params["montecarlo"], MpmSettings.from_config(params["mpm"])
+        duration_s = section["duration_s"] or mpm.duration_s
         return cls(
             simulator=section["simulator"],
             batch_size=section["batch_size"],
-            frames=frame_count(duration_s, mpm["frame_interval_s"]),
-            frame_interval_s=mpm["frame_interval_s"],
+            frames=frame_count(duration_s, mpm.frame_interval_s),
+            frame_interval_s=mpm.frame_interval_s,
             metrics=MetricSettings(**params["metrics"]),
             mpm=mpm,
             device=section["device"],
             keep_frames=section["keep_frames"],
-            rollout=rollout_settings(section["rollout"], mpm["frame_interval_s"], section["keep_frames"]),
+            rollout=rollout_settings(section["rollout"], mpm.frame_interval_s, section["keep_frames"]),
             screen=ScreenSettings(**section["screen"]),
         )
 
@@ -212,9 +214,9 @@ def run_realizations(
                     realization,
                     result,
                     settings.metrics,
-                    settings.mpm["density_kg_m3"],
+                    settings.mpm.density_kg_m3,
                     settings.frame_interval_s,
-                    settings.mpm["gravity_m_s2"],
+                    settings.mpm.gravity_m_s2,
                 )
                 | {"factor_of_safety": safety[realization.index], "simulator": settings.simulator}
             )

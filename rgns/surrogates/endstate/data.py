@@ -11,12 +11,14 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
 
 from rgns.atomic import atomic_path
 from rgns.engines.batch import simulate_mpm
+from rgns.engines.settings import MpmSettings
 from rgns.scene.realizations import CaseInputs, draw_realization
 
 
@@ -37,12 +39,12 @@ class EndState:
 
 
 def simulate_end_states(
-    inputs: CaseInputs, indices: list[int], mpm: dict, frames: int
+    inputs: CaseInputs, indices: list[int], mpm: dict[str, Any], frames: int
 ) -> tuple[list[EndState], list[str]]:
-    """Run realizations ``indices`` of a case through the embedded MPM in one batch; the finished
-    ones as end states, and every run's status."""
+    """Run realizations ``indices`` of a case through the embedded MPM in one batch (config section ``mpm``,
+    as the rule passes it); the finished ones as end states, and every run's status."""
     batch = [draw_realization(inputs, i) for i in indices]
-    results = simulate_mpm(batch, mpm, frames, keep="ends")
+    results = simulate_mpm(batch, MpmSettings.from_config(mpm), frames, keep="ends")
     states = [
         EndState(inputs.case, r.index, r.scene.positions, s.positions[-1], r.friction_deg, r.scene.volumes)
         for r, s in zip(batch, results)

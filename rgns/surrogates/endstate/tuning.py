@@ -25,6 +25,7 @@ import torch
 
 from rgns.engines.batch import simulate_mpm
 from rgns.engines.metrics import MetricSettings, crest_x, runout_metrics
+from rgns.engines.settings import MpmSettings
 from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.surrogates.endstate.data import EndState
 from rgns.surrogates.endstate.model import EndStateModel
@@ -70,11 +71,12 @@ def coarse_grained(
 def simulate_tuning_states(
     coarse: CaseInputs, fine: CaseInputs, indices: list[int], mpm: dict[str, Any], frames: int
 ) -> tuple[list[EndState], list[str]]:
-    """Realizations ``indices`` run by the MPM at ``fine``'s mesh in one batch, their end states
-    coarse-grained onto ``coarse``'s points; the finished ones, and every run's status."""
+    """Realizations ``indices`` run by the MPM at ``fine``'s mesh in one batch (config section ``mpm``, as
+    the rule passes it), their end states coarse-grained onto ``coarse``'s points; the finished ones, and
+    every run's status."""
     fine_batch = [draw_realization(fine, i) for i in indices]
     coarse_batch = [draw_realization(coarse, i) for i in indices]
-    runs = simulate_mpm(fine_batch, mpm, frames, keep="ends")
+    runs = simulate_mpm(fine_batch, MpmSettings.from_config(mpm), frames, keep="ends")
     spacing = coarse.mesh["cell_size_m"] / coarse.mesh["particles_per_cell"]
     states = [
         EndState(
