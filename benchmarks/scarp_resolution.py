@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -76,9 +77,11 @@ def run(case: str, indices: list[int], baseline_cfl: float) -> list[tuple[tuple[
     spacing = config["mesh"]["cell_size_m"] / config["mesh"]["particles_per_cell"]
     frames = frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])
     batch = [draw_realization(inputs, i) for i in indices]
-    mpm = simulate_mpm(batch, MpmSettings.from_config(config["mpm"]), frames, keep="ends")
+    settings = MpmSettings.from_config(config["mpm"])
+    mpm = simulate_mpm(batch, settings, frames, keep="ends")
     model = simulate_endstate(load_model(REPO / "rgns" / "models" / "endstate.pt"), batch)
-    other = simulate_mpm(batch, MpmSettings.from_config(config["mpm"] | {"cfl": baseline_cfl}), frames, keep="ends")
+    other_step = replace(settings, embedded=replace(settings.embedded, cfl=baseline_cfl))  # the engine's CFL number
+    other = simulate_mpm(batch, other_step, frames, keep="ends")
     rows = []
     for realization, truth, guess, again in zip(batch, mpm, model, other):
         if truth.status != "ok" or again.status != "ok":
