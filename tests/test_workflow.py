@@ -365,7 +365,7 @@ def test_jobs_ask_their_scheduler_for_a_gpu_exactly_when_their_device_is_cuda(tm
 
 
 def test_the_gate_reports_a_failed_model_or_stops_when_told(built, tmp_path):
-    """The tiny 400-step model against an R² of 0.99: by default (on_failure report) the verdict is printed at
+    """The tiny 200-step model against an R² of 0.99: by default (on_failure report) the verdict is printed at
     the top of the report and decides nothing — the Monte Carlo runs the learned simulator, corrected by the
     case's MPM pairs, and no rule runs the Monte Carlo on the MPM; with on_failure stop the chunks fail naming
     the case and metric, and nothing already computed is lost."""
