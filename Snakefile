@@ -36,6 +36,12 @@ include: "rules/site.smk"
 include: "rules/hazard.smk"
 
 
+# The rules that make models, only where the config asks for one to be made (config/pretrain*.yaml)
+if MAKES_MODELS:
+
+    include: "rules/models.smk"
+
+
 # Before the DAG: damaged intermediates removed (with the reason on the console), so that hazard_map,
 # which asks for every table and run folder the report rests on, makes them again (rgns/integrity.py).
 if workflow.is_main_process and not dry_run(sys.argv) and not locked():
@@ -61,29 +67,6 @@ rule dataset:
     input:
         expand("results/dataset/{set}.h5", set=SETS),
         "results/dataset/gns/metadata.json",
-
-
-rule pretrain:
-    """The training sets' MPM runs and the GNS trained on them (config/pretrain.yaml makes the shipped model)."""
-    input:
-        "results/model/gns.pt",
-        "results/model/card.md",
-
-
-rule pretrain_endstate:
-    """The end-state surrogate's training runs, its training and its card with the validation table
-    (config/pretrain_endstate.yaml makes the shipped one)."""
-    input:
-        "results/model/endstate.pt",
-        "results/model/endstate_card.md",
-
-
-rule pretrain_tuned:
-    """The accurate MPM runs of the Monte Carlo's cases and the end-state surrogate tuned on them, with its
-    card (config/pretrain_tuned.yaml makes the shipped one)."""
-    input:
-        "results/model/endstate_tuned.pt",
-        "results/model/endstate_tuned_card.md",
 
 
 rule hazard_map:

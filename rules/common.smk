@@ -139,6 +139,9 @@ SURROGATE_EVALUATION = "results/model/endstate_evaluation.json" if SURROGATE == 
 # no learned simulator, none
 RUN_SETS = ([] if SURROGATE is None else TEST_CASES if SURROGATE == "endstate" or config["gns"]["model"] == "shipped"
             else SETS)
+# whether the config asks for a model to be made here, not taken from rgns/models (rules/models.smk)
+MAKES_MODELS = (config["gns"]["model"] != "shipped" or config["endstate"]["model"] == "train"
+                or config["endstate"]["tuned"]["model"] == "train")
 
 
 wildcard_constraints:
@@ -287,63 +290,6 @@ def exceedance_params(wildcards):
     """Confidence, exceedance probabilities and the convergence criterion."""
     return {key: config["hazard"][key] for key in ("confidence", "exceedance_probabilities",
                                                     "convergence_tolerance", "convergence_window")}
-
-
-def endstate_chunk_ids():
-    """Chunk ids of the end-state training realizations of each test case (the held-out ones last)."""
-    section = config["endstate"]
-    return chunk_labels(section["realizations"] + section["held_out"], section["chunk_size"])
-
-
-ENDSTATE_SETS = config["endstate"]["sets"] or TEST_CASES
-ENDSTATE_VALIDATION_SETS = config["endstate"]["validation"]["sets"]
-# what training depends on: not the model choice, the validation or the tuning
-ENDSTATE_TRAINING = {key: value for key, value in config["endstate"].items() if key not in ("model", "validation", "tuned")}
-
-
-def endstate_validation_chunk_ids():
-    """Chunk ids of the validation realizations of each endstate.validation set."""
-    section = config["endstate"]["validation"]
-    return chunk_labels(section["realizations"], section["chunk_size"])
-
-
-def end_state_chunk_params(case, seed, chunk, chunk_size, total):
-    """A set's inputs drawn from ``seed``, and the MPM run of chunk ``chunk`` of its ``total`` realizations."""
-    return {"inputs": asdict(CaseInputs.from_config(config | {"seed": seed}, case)),
-            "indices": chunk_share(list(range(total)), int(chunk), chunk_size), "mpm": config["mpm"],
-            "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
-
-
-def endstate_validation_params(wildcards):
-    """A validation set's inputs drawn from endstate.validation.data_seed, and the MPM run of one chunk of them."""
-    section = config["endstate"]["validation"]
-    return end_state_chunk_params(wildcards.case, section["data_seed"], wildcards.chunk, section["chunk_size"],
-                                  section["realizations"])
-
-
-def endstate_data_params(wildcards):
-    """A test case's inputs drawn from endstate.data_seed, and the MPM run of one chunk of them."""
-    section = config["endstate"]
-    return end_state_chunk_params(wildcards.case, section["data_seed"], wildcards.chunk, section["chunk_size"],
-                                  section["realizations"] + section["held_out"])
-
-
-def tuned_chunk_ids():
-    """Chunk ids of the tuning realizations of each Monte Carlo case (the held-out ones last)."""
-    section = config["endstate"]["tuned"]
-    return chunk_labels(section["realizations"] + section["held_out"], section["chunk_size"])
-
-
-def tuned_data_params(wildcards):
-    """A case drawn from endstate.tuned.data_seed at the mesh and at the accurate mesh, and one chunk of it."""
-    section = config["endstate"]["tuned"]
-    first = int(wildcards.chunk) * section["chunk_size"]
-    last = min(first + section["chunk_size"], section["realizations"] + section["held_out"])
-    seeded = config | {"seed": section["data_seed"]}
-    fine = accurate_case_inputs(seeded, wildcards.case, config["montecarlo"]["fidelity"]["high_cell_size_m"])
-    return {"coarse": asdict(CaseInputs.from_config(seeded, wildcards.case)), "fine": asdict(fine),
-            "indices": list(range(first, last)), "mpm": config["mpm"],
-            "frames": frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])}
 
 
 def report_foundations(wildcards):
