@@ -23,7 +23,8 @@ class Simulated:
 
 def run_mpm(batch: list[Realization], mpm: MpmSettings, frames: int, keep: str = "all") -> list[RunResult]:
     """``frames`` frames of the embedded MPM engine, on the realizations' cases built in memory."""
-    cases = [case_from_scene(r.scene, r.friction_deg, mpm.case) for r in batch]
+    settings = mpm.case  # built once for the batch
+    cases = [case_from_scene(r.scene, r.friction_deg, settings) for r in batch]
     duration_s = (frames - 1) * mpm.frame_interval_s
     return run_batch(cases, mpm.embedded, duration_s, mpm.frame_interval_s, keep=keep)
 

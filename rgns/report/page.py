@@ -864,19 +864,18 @@ def routes(
     number per corrected case), the learned simulator alone (its gate's verdict said: nothing corrects it), or
     the MPM (configured)."""
     name, pairs = SURROGATE_NAMES[surrogate], pairs or {}
-    corrected = {case: f", corrected by {n} MPM pairs" for case, n in pairs.items()}
-    return {
-        case: (
-            "MPM (configured)" + corrected.get(case, "")
-            if case not in gate
-            else f"{name}{corrected[case]}"
-            if case in corrected
-            else f"{name} alone (passed its validation gate)"
-            if gate[case]["passed"]
-            else f"{name} alone, which failed its validation gate (below)"
-        )
-        for case in cases
-    }
+
+    def route(case: str) -> str:
+        corrected = f", corrected by {pairs[case]} MPM pairs" if case in pairs else ""
+        if case not in gate:
+            return "MPM (configured)" + corrected
+        if corrected:
+            return name + corrected
+        if gate[case]["passed"]:
+            return f"{name} alone (passed its validation gate)"
+        return f"{name} alone, which failed its validation gate (below)"
+
+    return {case: route(case) for case in cases}
 
 
 def provenance_line(made: dict[str, str], case_routes: dict[str, str]) -> str:
