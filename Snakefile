@@ -36,10 +36,7 @@ include: "rules/site.smk"
 include: "rules/hazard.smk"
 
 
-# The rules that make models, only where the config asks for one to be made (config/pretrain*.yaml)
-if MAKES_MODELS:
-
-    include: "rules/models.smk"
+include: "rules/models.smk"  # the rules that make models: each defined only where the config asks for it
 
 
 # Before the DAG: damaged intermediates removed (with the reason on the console), so that hazard_map,

@@ -139,9 +139,6 @@ SURROGATE_EVALUATION = "results/model/endstate_evaluation.json" if SURROGATE == 
 # no learned simulator, none
 RUN_SETS = ([] if SURROGATE is None else TEST_CASES if SURROGATE == "endstate" or config["gns"]["model"] == "shipped"
             else SETS)
-# whether the config asks for a model to be made here, not taken from rgns/models (rules/models.smk)
-MAKES_MODELS = (config["gns"]["model"] != "shipped" or config["endstate"]["model"] == "train"
-                or config["endstate"]["tuned"]["model"] == "train")
 
 
 wildcard_constraints:

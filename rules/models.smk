@@ -1,8 +1,8 @@
 # The rules that make the models: the GNS trained on the training sets' MPM runs, the end-state surrogate's
 # training runs, training, validation and card, and its tuning to the accurate mesh, with the pretrain* targets
-# (config/pretrain*.yaml make the shipped models). The Snakefile includes this file only when the config asks
-# for a model to be made (gns.model train or finetune, endstate.model train, endstate.tuned.model train); the
-# default takes the shipped models and never reaches these rules.
+# (config/pretrain*.yaml make the shipped models). Each group is defined only where the config asks for that
+# model to be made (gns.model train or finetune, endstate.model train, endstate.tuned.model train); the default
+# takes the shipped models and none of these rules exists for it.
 
 
 def endstate_chunk_ids():
