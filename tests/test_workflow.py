@@ -453,7 +453,14 @@ def test_the_tuned_control_variate_is_made_and_corrects_the_monte_carlo(built, t
     assert record["means"]["runout_m"]["low_mean"] == pytest.approx(control["runout_m"].mean())
     mc = read_csv(results / "mc" / "case1" / "realizations.csv")
     assert record["simulator_means"]["runout_m"] == pytest.approx(mc["runout_m"].mean())
-    assert record["cost"]["high_s"] > record["cost"]["low_s"] > 0
+    # the cheap route's cost is the tuned model's control chunks (not the Monte Carlo's own), from their job seconds
+    job_seconds = {
+        route: sum(pd.read_csv(path, sep="\t")["s"].sum() for path in (results / "mc" / "case1" / route).glob("*.tsv"))
+        for route in ("control", "paired")
+    }
+    assert record["cost"]["low_s"] == pytest.approx(job_seconds["control"] / 6) and job_seconds["control"] > 0
+    paired = read_csv(results / "mc" / "case1" / "paired.csv")
+    assert record["cost"]["high_s"] == pytest.approx(job_seconds["paired"] / len(paired)) and job_seconds["paired"] > 0
     page = (results / "report" / "report.html").read_text()
     assert (
         "by the correction&#x27;s cheap route (the end-state surrogate tuned" in page
