@@ -30,7 +30,7 @@ from rgns.scene.realizations import draw_realization
 from rgns.surrogates.endstate.model import load_model
 
 REPO = ml.REPO
-MODELS = {name: REPO / "rgns" / "models" / f"{name}.pt" for name in ("endstate_general", "endstate_tuned", "endstate")}
+MODELS = {name: REPO / "rgns" / "models" / f"{name}.pt" for name in ("endstate_general", "endstate_tuned")}
 REALIZATIONS = 128
 UNTOUCHED = 64  # realizations 0-63 were the pool the tuned model was judged on (hifi_surrogate.md)
 STATS = ("r_0.5", "R2_0.5", "bias_0.5", "r_1")

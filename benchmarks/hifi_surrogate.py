@@ -1,4 +1,4 @@
-"""Can a cheap route correlate better with the 0.5 m MPM than the 1 m MPM does? The shipped end-state
+"""Can a cheap route correlate better with the 0.5 m MPM than the 1 m MPM does? The geometry-general end-state
 surrogate fine-tuned on 0.5 m MPM runs, as the cheap route of the multi-fidelity benchmark.
 
     python benchmarks/hifi_surrogate.py --realizations 80 --train 64 --steps 600 --learning-rate 3e-4
@@ -7,7 +7,8 @@ surrogate fine-tuned on 0.5 m MPM runs, as the cheap route of the multi-fidelity
    embedded MPM at 0.5 m cells, each end state coarse-grained onto the 1 m mesh's point lattice
    (``rgns.surrogates.endstate.tuning.simulate_tuning_states``, as the pipeline's rule tuned_data). Chunks of 8,
    cached in ``--data``.
-2. The shipped model (``rgns/models/endstate.pt``) trained further on the first ``--train`` of them
+2. The geometry-general model (``rgns/models/endstate_general.pt``; results before 2026-11-29 started from the
+   retired test-case model) trained further on the first ``--train`` of them
    (``rgns.surrogates.endstate.tuning.fine_tune``, as the pipeline's rule tune_endstate); the rest are held out.
 3. Both models run on the pool of ``benchmarks/multifidelity.py`` (its ``multifidelity.json``) and
    analysed there as cheap routes against the 0.5 m MPM: correlation and speed-up at equal error.
@@ -82,7 +83,7 @@ def main() -> None:
     args = parser.parse_args()
     make_data(args.seed, args.realizations, args.data, args.workers)
     torch.set_num_threads(args.workers)
-    shipped = REPO / "rgns" / "models" / "endstate.pt"
+    shipped = REPO / "rgns" / "models" / "endstate_general.pt"
     model = load_model(shipped)
     states = read_end_states(sorted(args.data.glob(f"s{args.seed}_*.h5")))
     train = examples(model, [s for s in states if s.index < args.train])

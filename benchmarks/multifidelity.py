@@ -7,8 +7,8 @@
 A pool of default-config case-1 realizations (drawn as ``rgns.montecarlo.runs`` draws them, the field
 on the 1 m grid so every mesh samples the same field) is run by the embedded MPM at 0.5 m cells
 (the high fidelity: 1.2 % of range from the 0.5 m / cfl 0.1 reference in ``suite.md``) and by the
-cheap routes: the MPM at 1 m (the default) and at 2 m, the shipped end-state surrogate
-(``rgns/models/endstate.pt``, run here on the same realizations: it costs milliseconds) and, when
+cheap routes: the MPM at 1 m (the default) and at 2 m, the geometry-general end-state surrogate
+(``rgns/models/endstate_general.pt``, run here on the same realizations: it costs milliseconds) and, when
 ``benchmarks/results/mc_routes.json`` holds them for the same realizations, the shipped GNS. Wall time per realization is measured per
 route (one thread per worker; each batch of montecarlo.batch_size runs every MPM route in turn, so
 load weighs on each alike).
@@ -118,8 +118,8 @@ def add_gns_route(routes: dict, n: int) -> None:
 def add_endstate_route(
     routes: dict,
     n: int,
-    model_path: Path = REPO / "rgns" / "models" / "endstate.pt",
-    name: str = "end-state surrogate (shipped)",
+    model_path: Path = REPO / "rgns" / "models" / "endstate_general.pt",
+    name: str = "end-state surrogate (general)",
 ) -> None:
     """An end-state surrogate's rows of realizations 0..n-1 and its seconds per realization, as route
     ``name`` (one thread, the batches of montecarlo.batch_size the pipeline uses; drawing not counted,

@@ -2,7 +2,7 @@
 
     snakemake --cores 2 --configfile config/pretrain_general.yaml --directory work/pretrain_general \
         --until endstate_validation_data
-    python benchmarks/ood_surrogate.py --model rgns/models/endstate_general.pt --compare rgns/models/endstate.pt
+    python benchmarks/ood_surrogate.py --model rgns/models/endstate_general.pt --compare <previous model>.pt
 
 The first command runs the MPM end states of config/pretrain_general.yaml's endstate.validation
 sets (three geometry families no training set drew, a field model outside every training draw,
@@ -12,12 +12,8 @@ same slopes and writes, per set and metric, R², NRMSE, bias and relative bias w
 intervals over realizations, and the failed/stood confusion (``--output``.{json,md}); with
 ``--compare`` a second model (e.g. the previous shipped one) on the same slopes. It also times the
 model and the MPM per realization, one thread each, side by side. ``--simulate`` runs the end states that
-``--data`` lacks here (one thread, chunks of 16), ``--data-seed`` draws them from another seed: e.g. the test-case
-model's card on realizations nothing touched,
-
-    python benchmarks/ood_surrogate.py --config config/config.yaml --data work/untouched --simulate \
-        --data-seed 1618033988 --sets case1 case2 case3 case4 --model rgns/models/endstate.pt \
-        --time-realizations 0 --output benchmarks/results/endstate_untouched
+``--data`` lacks here (one thread, chunks of 16), ``--data-seed`` draws them from another seed (realizations
+nothing touched).
 """
 
 from __future__ import annotations
@@ -102,7 +98,7 @@ def main() -> None:
     parser.add_argument(
         "--data", default=str(REPO / "work" / "pretrain_general" / "results" / "endstate" / "validation")
     )
-    parser.add_argument("--model", default=str(REPO / "rgns" / "models" / "endstate.pt"))
+    parser.add_argument("--model", default=str(REPO / "rgns" / "models" / "endstate_general.pt"))
     parser.add_argument("--compare", help="a second model file, evaluated on the same slopes")
     parser.add_argument("--sets", nargs="+", help="sets of the config (default: all)")
     parser.add_argument("--realizations", type=int, default=64)

@@ -79,7 +79,7 @@ def run(case: str, indices: list[int], baseline_cfl: float) -> list[tuple[tuple[
     batch = [draw_realization(inputs, i) for i in indices]
     settings = MpmSettings.from_config(config["mpm"])
     mpm = simulate_mpm(batch, settings, frames, keep="ends")
-    model = simulate_endstate(load_model(REPO / "rgns" / "models" / "endstate.pt"), batch)
+    model = simulate_endstate(load_model(REPO / "rgns" / "models" / "endstate_general.pt"), batch)
     other_step = replace(settings, embedded=replace(settings.embedded, cfl=baseline_cfl))  # the engine's CFL number
     other = simulate_mpm(batch, other_step, frames, keep="ends")
     rows = []

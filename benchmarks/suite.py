@@ -19,7 +19,7 @@ thread; a GNS rollout includes its MPM warm-up, ``montecarlo.rollout.warmup_s``)
   architecture variants trained here on the pipeline's dataset (``results/dataset/train.h5`` of
   a ``gns.model: train`` run) for that many steps (checkpoints in benchmarks/results/models/,
   resumed when run again).
-* End-state surrogate: the shipped model (rgns/models/endstate.pt), one network evaluation per
+* End-state surrogate: the geometry-general model (rgns/models/endstate_general.pt), one network evaluation per
   realization in batches of montecarlo.batch_size, no MPM; ``--endstate`` adds it to an existing
   ``suite.json`` (the same realizations).
 * CB-Geo (``--cbgeo``): the real ``mpm`` binary on the same realizations at the default 1 m cells,
@@ -293,7 +293,7 @@ def main() -> None:
     parser.add_argument(
         "--endstate",
         nargs="?",
-        const=MODELS / "endstate.pt",
+        const=MODELS / "endstate_general.pt",
         type=Path,
         metavar="MODEL",
         help="add the end-state surrogate route (default: the shipped one) to suite.json",
@@ -366,7 +366,7 @@ def main() -> None:
     for name, model in variants.items() if args.train_steps else ():
         path = train_variant(config, args.models, name.replace(" ", "_").replace(",", ""), args.train_steps, **model)
         record(f"{name}, both", *run_gns_route(config, path, n, frames, mc))
-    record("end-state surrogate (shipped)", *run_endstate_route(config, MODELS / "endstate.pt", n))
+    record("end-state surrogate (shipped)", *run_endstate_route(config, MODELS / "endstate_general.pt", n))
 
     reference = routes["reference"]["rows"]
     for route in routes.values():

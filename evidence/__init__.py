@@ -24,8 +24,6 @@ from evidence.benchmarks import bench_current, bench_fields
 from evidence.endstate import (
     cheap_route_choice,
     endstate_speed,
-    endstate_training,
-    endstate_untouched,
     general_training,
     ood_bias_table,
     ood_table,
@@ -78,8 +76,6 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "ood-bias-table": ood_bias_table,
     "ood-targets": ood_targets,
     "endstate-speed": endstate_speed,
-    "endstate-untouched": endstate_untouched,
-    "endstate-training": endstate_training,
     "general-training": general_training,
     "gns-training": gns_training,
     "gns-recipe": gns_recipe,

@@ -23,39 +23,6 @@ def general_training() -> str:
     )
 
 
-def endstate_training() -> str:
-    """docs/surrogates.md: how the test-case end-state model was trained, from its card."""
-    record = card("endstate_card.json")
-    runs = len(record["cases"]) * (record["realizations_per_case"] + record["held_out_per_case"])
-    evaluation = record["evaluation"]
-    loss, mean = evaluation["valid_loss"], evaluation["valid_mean_predictor_loss"]
-    return (
-        f"{runs:,} training and held-out MPM runs ({record['realizations_per_case']} + {record['held_out_per_case']} "
-        f"per case of {', '.join(record['cases'])}), then {record['steps']:,} steps in {minutes(record['wall_s'])}: "
-        f"the held-out loss ends at {loss:.6f} against the mean predictor's {mean:.3f} ({mean / loss:,.0f}× below; "
-        "`rgns/models/endstate_card.json`, learning curve in the card)."
-    )
-
-
-def endstate_untouched() -> str:
-    """The test-case end-state model's card: its agreement with MPM runs of the test cases no choice touched."""
-    import pandas as pd
-
-    from rgns.surrogates.endstate.evaluate import markdown_table
-
-    record = result("endstate_untouched.json")
-    return "\n".join(
-        [
-            f"{record['model'][0]['n']} realizations per test case drawn from seed {record['data_seed']}, which no "
-            f"training or choice of this model touched, run by the embedded MPM at 1 m (made at {record['commit']} by "
-            f"`{record['command']}`; `benchmarks/results/endstate_untouched.md`). In distribution: the test cases' "
-            "own families and fields, fresh realizations.",
-            "",
-            markdown_table(pd.DataFrame(record["model"])).strip(),
-        ]
-    )
-
-
 def untouched_subset(record: dict[str, Any]) -> tuple[str, dict[str, Any]]:
     """cheap_route.json's subset of realizations no choice touched: its range ("64-127") and its rows per model."""
     name = next(name for name in record["subsets"] if name.startswith("untouched"))
@@ -179,16 +146,14 @@ def ood_bias_table() -> str:
 
 
 def endstate_speed() -> str:
-    """docs/surrogates.md: the test-case end-state model's cost per realization beside the MPM's and the GNS's, all
-    timed in one benchmark run on the same realizations (multifidelity.json)."""
-    record = result("multifidelity.json", legacy=True)
-    cost = {name: route["s_per_realization"] for name, route in record["analysis"]["cheap"].items()}
-    accurate = record["routes"]["MPM 0.5 m"]["s_per_realization"]
-    model = cost["end-state surrogate (shipped)"]
+    """docs/surrogates.md: the geometry-general end-state model's cost per realization beside the 1 m MPM's, timed
+    side by side on the same realizations (ood_surrogate.json's cost)."""
+    record = result("ood_surrogate.json", legacy=True)
+    cost = record["cost"]
     return (
-        f"{1000 * model:.1f} ms per realization against {cost['MPM 1 m']:.2f} s for the 1 m MPM, {accurate:.1f} s for "
-        f"the 0.5 m MPM and {cost['GNS (shipped)']:.1f} s for the GNS ({record['n']} case-1 realizations, "
-        f"{record['machine']}; `{record['command']}`, committed in {record['committed_in']})."
+        f"{1000 * cost['model_s']:.1f} ms per realization against {cost['mpm_s']:.2f} s for the 1 m MPM "
+        f"({cost['ratio']:.0f}× faster; {cost['realizations']} {cost['case'].replace('case', 'case-')} realizations, "
+        f"one thread each, side by side; `{record['command']}`, committed in {record['committed_in']})."
     )
 
 

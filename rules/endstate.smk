@@ -1,16 +1,14 @@
 SHIPPED_ENDSTATE = os.path.join(workflow.basedir, "rgns/models")
-# the shipped model's file stem: the test-case model (endstate.model: shipped) or the geometry-general one
-SHIPPED_ENDSTATE_STEM = {"shipped": "endstate", "general": "endstate_general"}.get(config["endstate"]["model"])
 
-if SHIPPED_ENDSTATE_STEM:
+if config["endstate"]["model"] == "general":
 
     rule shipped_endstate:
-        """Take a pretrained end-state surrogate shipped with the package (its card:
-        rgns/models/endstate_card.md, or endstate_general_card.md), checked to serve this config."""
+        """Take the geometry-general end-state surrogate shipped with the package (its card:
+        rgns/models/endstate_general_card.md), checked to serve this config."""
         input:
-            model=os.path.join(SHIPPED_ENDSTATE, f"{SHIPPED_ENDSTATE_STEM}.pt"),
-            card=os.path.join(SHIPPED_ENDSTATE, f"{SHIPPED_ENDSTATE_STEM}_card.json"),
-            curve=os.path.join(SHIPPED_ENDSTATE, f"{SHIPPED_ENDSTATE_STEM}_curve.png"),
+            model=os.path.join(SHIPPED_ENDSTATE, "endstate_general.pt"),
+            card=os.path.join(SHIPPED_ENDSTATE, "endstate_general_card.json"),
+            curve=os.path.join(SHIPPED_ENDSTATE, "endstate_general_curve.png"),
         output:
             model="results/model/endstate.pt",
             curve=report("results/model/endstate_curve.png", caption="../rgns/report/captions/endstate_curve.rst", category="End-state surrogate"),

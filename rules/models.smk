@@ -224,7 +224,7 @@ if config["endstate"]["model"] == "train":
 
     rule pretrain_endstate:
         """The end-state surrogate's training runs, its training and its card with the validation table
-        (config/pretrain_endstate.yaml makes the shipped one)."""
+        (config/pretrain_general.yaml makes the shipped geometry-general one)."""
         input:
             "results/model/endstate.pt",
             "results/model/endstate_card.md",

@@ -831,7 +831,7 @@ def model_section(
 ) -> None:
     """What the learned simulator is and how it trained."""
     if surrogate == "endstate":
-        card = evaluation.get("card", "rgns/models/endstate_card.md")
+        card = evaluation.get("card", "rgns/models/endstate_general_card.md")
         origin = f"the model shipped with rgns (card: {card}), " if evaluation.get("shipped") else ""
         report.add(
             "End-state surrogate",

@@ -238,20 +238,13 @@ def _shipped_endstate_errors(config: dict[str, Any]) -> list[str]:
     from rgns.surrogates.endstate.card import check_serves as endstate_serves  # local: only needed here
     from rgns.surrogates.endstate.card import outside_ranges
 
-    model = config["endstate"]["model"]
-    if config["montecarlo"]["simulator"] != "endstate" or model == "train":
+    if config["montecarlo"]["simulator"] != "endstate" or config["endstate"]["model"] != "general":
         return []
     try:
-        card = read_card(MODELS, "endstate_card.json" if model == "shipped" else "endstate_general_card.json")
+        card = read_card(MODELS, "endstate_general_card.json")
         endstate_serves(card, config)
     except ShippedModelError as error:
-        other = (
-            " — or endstate.model: general, the geometry-general model for any slope in a domain up to "
-            "80 x 20 m (rgns/models/endstate_general_card.md)"
-            if model == "shipped"
-            else ""
-        )
-        return [f"config key 'endstate.model' = {model!r}: {error}{other}"]
+        return [f"config key 'endstate.model' = 'general': {error}"]
     for line in outside_ranges(card, config, config["montecarlo"]["cases"]):
         log.warning(line)
     return []

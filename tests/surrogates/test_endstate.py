@@ -1,5 +1,5 @@
 """The end-state surrogate's parts: the lattice, learning a known rule, exact resume, files, the
-Monte Carlo and validation routes (the shipped model's accuracy: tests/surrogates/test_endstate_shipped.py)."""
+Monte Carlo and validation routes (the shipped model's accuracy: tests/surrogates/test_endstate_general.py)."""
 
 from __future__ import annotations
 

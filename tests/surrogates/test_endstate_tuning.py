@@ -107,7 +107,7 @@ def test_the_shipped_tuned_model_correlates_with_untouched_accurate_mpm_runs_bet
 ):
     """The tuned model run as the Monte Carlo runs it, against 64 accurate MPM runs no choice touched: its runout
     and volume correlate with them at 0.97 or more (the lower 95 % bound on 64 pairs), what the control variate
-    needs, and its runout better than the untuned model's (measured 0.985 against 0.945)."""
+    needs, and its runout better than the untuned model's (measured 0.981 against 0.938)."""
     monkeypatch.syspath_prepend(REPO / "benchmarks")
     from mesh_levels import GPU_RUNS, load_runs  # the benchmark's reader of its runs
 
@@ -120,7 +120,7 @@ def test_the_shipped_tuned_model_correlates_with_untouched_accurate_mpm_runs_bet
     )
     accurate, same_mesh = (pd.DataFrame([runs["case1", cell, i] for i in UNTOUCHED]) for cell in (0.5, 1.0))
     correlation = {}
-    for name in ("endstate_tuned", "endstate"):
+    for name in ("endstate_tuned", "endstate_general"):
         table = run_realizations(inputs, list(UNTOUCHED), settings, load_model(MODELS / f"{name}.pt"))
         assert (table["status"] == "ok").all()
         assert np.allclose(table["friction_mean_deg"], same_mesh["friction_mean_deg"]), "not the MPM's realizations"
@@ -129,5 +129,5 @@ def test_the_shipped_tuned_model_correlates_with_untouched_accurate_mpm_runs_bet
     print(correlation)
     for metric in ("runout_m", "volume_m2"):
         assert correlation_lower_bound(correlation["endstate_tuned", metric], len(UNTOUCHED)) >= 0.97
-    assert correlation["endstate_tuned", "runout_m"] > correlation["endstate", "runout_m"]
-    assert load_model(MODELS / "endstate_tuned.pt").lattice == load_model(MODELS / "endstate.pt").lattice
+    assert correlation["endstate_tuned", "runout_m"] > correlation["endstate_general", "runout_m"]
+    assert load_model(MODELS / "endstate_tuned.pt").lattice == load_model(MODELS / "endstate_general.pt").lattice

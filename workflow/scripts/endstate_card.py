@@ -1,4 +1,4 @@
-"""Rule endstate_card: the trained end-state surrogate's card (rgns/models/endstate_card.* when shipped)."""
+"""Rule endstate_card: the trained end-state surrogate's card (rgns/models/endstate_general_card.* when shipped)."""
 
 import json
 from pathlib import Path

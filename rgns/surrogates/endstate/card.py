@@ -1,4 +1,4 @@
-"""The end-state surrogate's card (rgns/models/endstate_card.{json,md}), what it serves, and its
+"""The end-state surrogate's card (rgns/models/endstate_general_card.{json,md}), what it serves, and its
 learning curve.
 
 The model is tied to the lattice spacing it reads (the mesh), to the MPM it imitates (its material,

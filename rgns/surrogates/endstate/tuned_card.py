@@ -17,6 +17,11 @@ from rgns.surrogates.shipped import ShippedModelError, data_fingerprint, refuse_
 from rgns.tables import markdown_table
 
 SETTING = "endstate.tuned.model"
+# the model a tuning starts from, by endstate.model
+BASES = {
+    "general": "the geometry-general end-state surrogate (rgns/models/endstate_general.pt)",
+    "train": "this run's end-state surrogate (results/model/endstate.pt)",
+}
 
 
 def tuned_served(config: dict[str, Any], cases: list[str]) -> dict[str, Any]:
@@ -78,7 +83,7 @@ def render_tuned_card(card: dict[str, Any]) -> str:
         "# The shipped tuned end-state surrogate: model card",
         "",
         "Produced by the pipeline: `snakemake --cores 2 --configfile config/pretrain_tuned.yaml --directory "
-        'work/pretrain_tuned pretrain_tuned` (README, "Multi-fidelity correction"). The control variate of the '
+        'work/pretrain_tuned pretrain_tuned` (docs/fidelity.md, "Multi-fidelity correction"). The control variate of the '
         "multi-fidelity correction (`montecarlo.fidelity.cheap: tuned`); it does not draw a map of its own.",
         "",
         "## What it serves",
@@ -90,7 +95,7 @@ def render_tuned_card(card: dict[str, Any]) -> str:
         "",
         "## Tuning",
         "",
-        f"* from: the shipped end-state surrogate (rgns/models/endstate.pt), which learned the MPM at "
+        f"* from: {BASES[card['config']['endstate']['model']]}, which learned the MPM at "
         f"{card['serves']['mesh.cell_size_m']} m cells",
         f"* data: {tuned['realizations']} realizations per case drawn from seed {tuned['data_seed']}, run by the "
         f"embedded MPM at {cell} m cells and coarse-grained onto the model's lattice, plus {tuned['held_out']} held "

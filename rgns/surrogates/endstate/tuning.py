@@ -3,7 +3,7 @@ correction.
 
 The shipped surrogate learned the MPM at the default 1 m cells and correlates with the 0.5 m MPM no
 better than that MPM does (runout 0.974), which caps the correction's speed-up on exceedance
-probabilities below 5× (README, "Multi-fidelity correction"). Trained further on realizations run
+probabilities below 5× (docs/fidelity.md, "Multi-fidelity correction"). Trained further on realizations run
 by the accurate MPM, it correlates 0.991 (``benchmarks/hifi_surrogate.py``).
 
 The accurate runs are made at the finer mesh; each end state is coarse-grained back onto the
