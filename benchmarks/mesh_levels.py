@@ -140,10 +140,22 @@ def run_settings(config: dict) -> RunSettings:
     return RunSettings.from_params(params)
 
 
-def run(config: dict, cases: list[str], cells: list[float], realizations: int, first: int = 0, batch: int = 1) -> None:
+def run(
+    config: dict,
+    cases: list[str],
+    cells: list[float],
+    realizations: int,
+    first: int = 0,
+    batch: int = 1,
+    ends: Path | None = None,
+) -> None:
     """Every missing (realization, case, cell) run from realization ``first`` on, saved one by one; with
     ``batch`` > 1, the missing ones of each aligned group of ``batch`` indices run together (one MPM batch,
-    each at its own time step; on a GPU with ``mpm.embedded.device``), each saved with the batch's seconds / size."""
+    each at its own time step; on a GPU with ``mpm.embedded.device``), each saved with the batch's seconds / size.
+    With ``ends`` a folder, each run's first and last particle positions and friction angles are kept there too
+    (``{case}_{cell}_{index}.npz``: what a picture of the moved ground needs)."""
+    if ends is not None:
+        keep_ends(ends)
     settings = run_settings(config)
     settings = replace(settings, batch_size=batch)
     device = config["mpm"]["embedded"]["device"]
@@ -165,13 +177,41 @@ def run(config: dict, cases: list[str], cells: list[float], realizations: int, f
                 seconds = (time.perf_counter() - began) / len(missing)
                 for row in rows.to_dict("records"):
                     record = {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
-                    extra = {"seconds": seconds, "cell_size_m": h, "device": device, "batch": len(missing)}
+                    extra = {
+                        "seconds": seconds,
+                        "cell_size_m": h,
+                        "device": device,
+                        "batch": len(missing),
+                        "seed": config["seed"],
+                    }
                     append_run(RUNS, case, h, int(row["index"]), record | extra)
                 print(
                     f"{case} h {h:g} realizations {missing[0]}-{missing[-1]}: mean R {rows['runout_m'].mean():.2f} m, "
                     f"{seconds:.1f} s each",
                     flush=True,
                 )
+
+
+def keep_ends(folder: Path) -> None:
+    """Make every measured MPM run keep its first and last positions in ``folder`` (rgns.montecarlo.runs.measure
+    wrapped: the measure the pipeline uses, unchanged)."""
+    from rgns.montecarlo import runs as runs_module
+
+    folder.mkdir(parents=True, exist_ok=True)
+    measure = runs_module.measure
+
+    def measure_and_keep(realization, result, *args):
+        row = measure(realization, result, *args)
+        cell = float(realization.scene.cell_size_m)
+        np.savez_compressed(
+            folder / f"{realization.scene.set_name}_{cell:g}_{realization.index}.npz",
+            initial=result.positions[0].astype(np.float32),
+            final=result.positions[-1].astype(np.float32),
+            friction_deg=np.asarray(realization.friction_deg, dtype=np.float32),
+        )
+        return row
+
+    runs_module.measure = measure_and_keep
 
 
 def saved(
@@ -659,6 +699,10 @@ def main() -> None:
     )
     parser.add_argument("--no-report", action="store_true", help="run only (a worker among several)")
     parser.add_argument(
+        "--seed", type=int, help="draw the realizations from this top-level seed (default: the config's)"
+    )
+    parser.add_argument("--keep-ends", type=Path, help="a folder to keep each run's first and last positions in")
+    parser.add_argument(
         "--resolved-config",
         type=Path,
         help="the default config already validated, as JSON (a machine without Snakemake)",
@@ -675,7 +719,9 @@ def main() -> None:
             else load_config(REPO / "config" / "config.yaml")
         )
         config["mpm"]["embedded"]["device"] = args.device
-        run(config, args.cases, args.cells, args.realizations, args.first, args.batch)
+        if args.seed is not None:
+            config["seed"] = args.seed
+        run(config, args.cases, args.cells, args.realizations, args.first, args.batch, args.keep_ends)
     if not args.no_report:
         report(args.cases, args.cells, args.against)
 
