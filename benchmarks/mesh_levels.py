@@ -3,7 +3,7 @@
     python benchmarks/mesh_levels.py --run --cases case1 case3    # resumable: one line per run
     python benchmarks/mesh_levels.py                              # tables and plot from what is saved
 
-Each realization is the default config's Monte Carlo realization (the top-level seed), drawn as the
+Each realization is the default config's Monte Carlo realization (the top-level seed, or ``--seed``), drawn as the
 pipeline's paired chunks draw it (``rgns.scene.realizations.accurate_case_inputs``: the same slope and the
 friction field on the 1 m grid at every mesh) and run as they run it (``run_realizations`` with the
 embedded MPM, screening included), at cells h = 1, 0.5, 0.25 m (``--cells``). Every run is appended as

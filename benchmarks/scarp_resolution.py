@@ -6,7 +6,7 @@ I is measured from the rear-most point displaced ≥ 1 m (``rgns.engines.metrics
 it moves in steps of the point spacing (0.5 m at the default mesh). Where I varies by less than
 one spacing between realizations (case 4: standard deviation 0.48 m over 64), a point moved 0.93 m by MPM
 and 1.07 m by the model changes I by a whole spacing. Here the default-seed realizations of each
-case (those the validation gate uses first) are run by the embedded MPM and the shipped surrogate,
+case (those the validation gate uses first) are run by the embedded MPM and the geometry-general surrogate,
 and I is measured both ways: as the pipeline does, and with the scarp placed between lattice
 points where the displacement crosses the threshold (linear along each row: between the rear-most
 displaced point of a row and the point behind it). Beside them, per case, the spread of MPM's I
