@@ -115,14 +115,20 @@ def indices_at(runs: dict[Key, dict], case: str, cell: float) -> set[int]:
     return {i for c, h, i in runs if c == case and h == cell}
 
 
+def seeds() -> list[int]:
+    """The top-level seeds the runs in RUNS were drawn from (the default config's where a run does not say)."""
+    default = load_config(REPO / "config" / "config.yaml")["seed"]
+    return sorted({int(row.get("seed", default)) for row in load_runs(RUNS).values()})
+
+
 def report_name() -> str:
     """The report's name: the runs' store's, less its ``_runs.jsonl`` (mesh_levels, mesh_levels_gpu)."""
     return RUNS.name.removesuffix(".jsonl").removesuffix("_runs")
 
 
 def other_runs() -> bool:
-    """Whether RUNS (``--runs``) are not the one-thread CPU runs."""
-    return RUNS.resolve() != CPU_RUNS.resolve()
+    """Whether RUNS (``--runs``) ran elsewhere than on one CPU thread (a GPU's batches)."""
+    return any(row.get("device", "cpu") != "cpu" for row in load_runs(RUNS).values())
 
 
 def run_settings(config: dict) -> RunSettings:
@@ -311,31 +317,78 @@ def cpu_agreement(case: str, cells: list[float]) -> tuple[list[str], list[dict]]
     ], records
 
 
-def finest_check(case: str, cells: list[float], finest: float = 0.125) -> list[str]:
-    """Where realizations also ran at ``finest``: its means against the Richardson value the three
-    coarser levels predict for the same realizations, and the order of the three finest levels."""
+def finest_fit(values: np.ndarray, seed: int = 0) -> dict:
+    """Four levels [4, n] (h, h/2, h/4, h/8): the finest level's mean against what the three coarser predict for
+    it (their Richardson value f* plus the finest's expected error (f_h/4 − f*) / 2^p), and the order and
+    Richardson value of the three finest, each with its paired bootstrap interval over the realizations."""
+
+    def statistic(*columns: np.ndarray, axis: int = -1) -> np.ndarray:
+        means = np.stack([c.mean(axis=axis) for c in columns], axis=-1)  # [..., 4]
+        order, value = richardson(means[..., :3])
+        with np.errstate(invalid="ignore", over="ignore"):
+            predicted = value + (means[..., 2] - value) / 2.0**order
+        order_fine, value_fine = richardson(means[..., 1:])
+        stacked = [means[..., 3], predicted, means[..., 3] - predicted, order_fine, value_fine]
+        return np.stack(stacked, axis=0)
+
+    point, low, high = paired_bootstrap(tuple(values), statistic, seed)
+    names = ["finest", "predicted", "finest_minus_predicted", "order_fine", "richardson_fine"]
+    return {
+        name: {"value": float(p), "lower": float(lo), "upper": float(hi)}
+        for name, p, lo, hi in zip(names, point, low, high)
+    }
+
+
+def finest_check(case: str, cells: list[float], finest: float = 0.125) -> tuple[list[str], dict]:
+    """Where realizations also ran at ``finest``: its means against the value the three coarser levels predict
+    for the same realizations (:func:`finest_fit`), with intervals once 8 or more ran (points below that)."""
     levels = [*cells, finest]
     indices, values, seconds = saved(case, levels)
     if len(indices) == 0:
-        return []
+        return [], {}
+    if len(indices) < 8:
+        lines = [
+            "",
+            f"At h = {finest:g} m ({len(indices)} realizations: {', '.join(map(str, indices))}; "
+            f"{seconds[finest]:.0f} s per realization): the means against the Richardson value of 1 / 0.5 / 0.25 m "
+            "on the same realizations (points, too few for an interval):",
+            "",
+            f"| quantity | means at h = {' / '.join(f'{h:g}' for h in levels)} m | Richardson from 1 / 0.5 / 0.25 m | "
+            "order from 0.5 / 0.25 / 0.125 m |",
+            "|---|---|---|---|",
+        ]
+        for key in METRICS:
+            means = values[key].mean(axis=1)
+            _, predicted = richardson(means[:3])
+            order_fine, _ = richardson(means[1:])
+            steps = np.diff(means[1:])
+            fine = (
+                f"{order_fine:.2f}" if np.sign(steps[0]) == np.sign(steps[1]) else "none (the differences change sign)"
+            )
+            lines.append(f"| {key} | {' / '.join(f'{m:.2f}' for m in means)} | {predicted:.2f} | {fine} |")
+        return lines, {}
+    fits = {key: finest_fit(values[key]) for key in METRICS}
+
+    def cell(entry: dict) -> str:
+        return f"{entry['value']:.2f} [{entry['lower']:.2f}, {entry['upper']:.2f}]"
+
     lines = [
         "",
-        f"At h = {finest:g} m ({len(indices)} realizations: {', '.join(map(str, indices))}; "
-        f"{seconds[finest]:.0f} s per realization): the means against the Richardson value of 1 / 0.5 / 0.25 m on "
-        "the same realizations (points, too few for an interval):",
+        f"At h = {finest:g} m ({len(indices)} realizations; {seconds[finest]:.0f} s per realization): its mean "
+        "against what 1 / 0.5 / 0.25 m predict for it (their Richardson value plus the finest level's error at "
+        "their order), and the order of 0.5 / 0.25 / 0.125 m, with 95 % bootstrap intervals:",
         "",
-        f"| quantity | means at h = {' / '.join(f'{h:g}' for h in levels)} m | Richardson from 1 / 0.5 / 0.25 m | "
-        "order from 0.5 / 0.25 / 0.125 m |",
-        "|---|---|---|---|",
+        f"| quantity | means at h = {' / '.join(f'{h:g}' for h in levels)} m | mean at {finest:g} m | predicted | "
+        "observed − predicted | order of the three finest | Richardson from them |",
+        "|---|---|---|---|---|---|---|",
     ]
-    for key in METRICS:
-        means = values[key].mean(axis=1)
-        _, predicted = richardson(means[:3])
-        order_fine, _ = richardson(means[1:])
-        steps = np.diff(means[1:])
-        fine = f"{order_fine:.2f}" if np.sign(steps[0]) == np.sign(steps[1]) else "none (the differences change sign)"
-        lines.append(f"| {key} | {' / '.join(f'{m:.2f}' for m in means)} | {predicted:.2f} | {fine} |")
-    return lines
+    for key, f in fits.items():
+        means = " / ".join(f"{m:.2f}" for m in values[key].mean(axis=1))
+        lines.append(
+            f"| {key} | {means} | {cell(f['finest'])} | {cell(f['predicted'])} | "
+            f"{cell(f['finest_minus_predicted'])} | {cell(f['order_fine'])} | {cell(f['richardson_fine'])} |"
+        )
+    return lines, {"realizations": indices.tolist(), "seconds": seconds[finest], "fits": fits}
 
 
 def mesh_order(order: dict) -> list[float] | None:
@@ -365,6 +418,11 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
         else "`python benchmarks/mesh_levels.py --run --cases case1 case3` (and `--cells 0.125`, `--first`, "
         "`--realizations` to extend), then `python benchmarks/mesh_levels.py --against "
         "<run>/results/report/case1/multifidelity.json`"
+        if RUNS.resolve() == CPU_RUNS.resolve()
+        else f"`python benchmarks/mesh_levels.py --run --no-report --cases {' '.join(cases)} --cells 1 0.5 0.25 0.125 "
+        f"--seed {', '.join(map(str, seeds()))} --realizations 16 --runs {RUNS.relative_to(REPO)} --keep-ends <ends>` "
+        f"(two processes, `--first 0 --realizations 8` and `--first 8`), then `python benchmarks/mesh_levels.py "
+        f"--cases {' '.join(cases)} --runs {RUNS.relative_to(REPO)}`"
     )
     times = (
         "Times: wall seconds per realization of a GPU batch of 64 (sharing its time step)."
@@ -372,7 +430,9 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
         else "Times: wall seconds per realization on one thread of a 2-core machine with other work running."
     )
     lines = [
-        "# The embedded MPM's mesh error on the Monte Carlo's realizations",
+        "# The embedded MPM's mesh error on the Monte Carlo's realizations"
+        if RUNS.resolve() == CPU_RUNS.resolve() or other_runs()
+        else f"# The embedded MPM's mesh error on realizations of their own (seed {', '.join(map(str, seeds()))})",
         "",
         f"{how} (method: its docstring). B-spline shape functions, the default config's engine settings and run "
         f"length; 95 % percentile bootstrap intervals over the realizations. {times}",
@@ -412,7 +472,8 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
                 f"| {key} | {means} | {cell(f['order'])} | {cell(f['richardson'])} | "
                 f"{cell(f['error_0.5'])} | {cell(f['error_0.25'])} |"
             )
-        lines += finest_check(case, cells)
+        finest_lines, record[case]["finest"] = finest_check(case, cells)
+        lines += finest_lines
         agreement, record[case]["cpu_agreement"] = cpu_agreement(case, cells)
         lines += agreement
         suggested = {key: mesh_order(fits[key]["order"]) for key in METRICS}
