@@ -27,7 +27,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from mesh_levels import OUT, load_runs, paired_bootstrap  # noqa: E402
+from mesh_levels import OUT, load_runs, paired_bootstrap, richardson  # noqa: E402
 
 from rgns.engines.metrics import influence_distance  # noqa: E402
 from rgns.provenance import commit  # noqa: E402
@@ -80,11 +80,10 @@ def mean_intervals(levels: np.ndarray, seed: int = 0) -> dict:
     observed order of the three finest, each with its paired percentile bootstrap interval."""
 
     def statistic(*columns: np.ndarray, axis: int = -1) -> np.ndarray:
-        means = np.stack([c.mean(axis=axis) for c in columns], axis=0)  # [cells, ...]
-        coarse, fine = means[-2] - means[-3], means[-1] - means[-2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            order = np.log2(np.abs(coarse / fine))
-        return np.concatenate([means, fine[None], order[None]], axis=0)
+        means = np.stack([c.mean(axis=axis) for c in columns], axis=-1)  # [..., cells]
+        order, _ = richardson(means[..., -3:])
+        fine = means[..., -1] - means[..., -2]
+        return np.concatenate([np.moveaxis(means, -1, 0), fine[None], order[None]], axis=0)
 
     point, low, high = paired_bootstrap(tuple(levels), statistic, seed)
     return {
