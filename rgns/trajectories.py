@@ -246,31 +246,51 @@ def pack(
     paths = [path for path in paths if statuses[str(path)] == "ok"]
     if not paths:
         raise TrajectoryError(f"set {set_name}: no finished realization to pack ({len(excluded)} diverged)")
-    first = read_trajectory(paths[0])
+    return pack_trajectories(
+        (read_trajectory(path) for path in paths), out_path, set_name, compression, excluded
+    ), excluded
+
+
+def pack_trajectories(
+    trajectories: Iterable[Trajectory],
+    out_path: str | Path,
+    set_name: str,
+    compression: str = "gzip",
+    excluded: list[str] | None = None,
+) -> MotionStatistics:
+    """Pack trajectories of one frame layout into a set file with motion statistics (``excluded``: what was left
+    out, recorded in the file)."""
     with _atomic_h5(out_path) as handle:
         handle.attrs["set_name"] = set_name
-        handle.attrs["excluded"] = json.dumps(excluded)
-        handle.attrs["frame_interval_s"] = first.frame_interval_s
-        handle.attrs["bounds"] = first.bounds
+        handle.attrs["excluded"] = json.dumps(excluded or [])
         group = handle.create_group("trajectories")
+        first: list[Trajectory] = []
 
         def copied() -> Iterator[Trajectory]:
-            for path in paths:
-                trajectory = read_trajectory(path)
-                if trajectory.frame_interval_s != first.frame_interval_s or trajectory.n_frames != first.n_frames:
+            for trajectory in trajectories:
+                if not first:
+                    first.append(trajectory)
+                    handle.attrs["frame_interval_s"] = trajectory.frame_interval_s
+                    handle.attrs["bounds"] = trajectory.bounds
+                elif (
+                    trajectory.frame_interval_s != first[0].frame_interval_s or trajectory.n_frames != first[0].n_frames
+                ):
                     raise TrajectoryError(
-                        f"{path}: {trajectory.n_frames} frames at {trajectory.frame_interval_s} s, but {paths[0]} "
-                        f"has {first.n_frames} at {first.frame_interval_s} s; a set needs one frame layout"
+                        f"{trajectory.set_name} {trajectory.index:04d}: {trajectory.n_frames} frames at "
+                        f"{trajectory.frame_interval_s} s, but {first[0].set_name} {first[0].index:04d} has "
+                        f"{first[0].n_frames} at {first[0].frame_interval_s} s; a set needs one frame layout"
                     )
                 _write_group(group.create_group(f"{trajectory.index:04d}"), trajectory, compression)
                 yield trajectory
 
         statistics = motion_statistics(copied())
+        if not first:
+            raise TrajectoryError(f"set {set_name}: no trajectory to pack")
         stats_group = handle.create_group("statistics")
         for name, value in vars(statistics).items():
             stats_group.create_dataset(name, data=value)
         stats_group.attrs["units"] = "per frame: m/frame and m/frame^2"
-    return statistics, excluded
+    return statistics
 
 
 def read_packed(path: str | Path) -> Iterator[Trajectory]:

@@ -22,7 +22,7 @@ import numpy as np
 import torch
 from scipy.ndimage import gaussian_filter1d
 
-from rgns.surrogates.gns.simulator import GraphInput, Normalization
+from rgns.surrogates.gns.simulator import GraphInput, Normalization, static_features
 from rgns.trajectories import TrajectoryError
 
 IN_MEMORY_BYTES = 2 * 1024**3
@@ -67,6 +67,9 @@ class WindowSampler:
         self.volume_m2 = [g["volume_m2"][()] for g in self.groups]
         size = sum(g["positions"].size for g in self.groups) * 4
         self.positions = [g["positions"][()] for g in self.groups] if size <= IN_MEMORY_BYTES else None
+        self.static = [
+            torch.from_numpy(static_features(self.frames_of(k, 0, 1)[0], self.bounds)) for k in range(len(self.groups))
+        ]
         self.real = [
             real_frames(self.positions[k] if self.positions is not None else g["positions"][()])
             for k, g in enumerate(self.groups)
@@ -111,16 +114,19 @@ class WindowSampler:
 
     def window(self, picks: list[tuple[int, int]]) -> Window:
         """The windows starting at (trajectory, frame) for each pick, as one batch."""
-        positions, types, friction, batch = [], [], [], []
+        positions, types, friction, batch, static = [], [], [], [], []
         for graph, (trajectory, start) in enumerate(picks):
             frames = torch.from_numpy(self.smoothed_frames_of(trajectory, start, self.length)).transpose(0, 1)
             positions.append(frames)
             types.append(self.particle_type[trajectory])
             friction.append(self.tan_friction[trajectory])
+            static.append(self.static[trajectory])
             batch.append(torch.full((frames.shape[0],), graph, dtype=torch.long))
         positions = torch.cat(positions)
         inputs = positions[:, : self.history + 1]
-        graph = GraphInput(inputs.contiguous(), torch.cat(types), torch.cat(friction), torch.cat(batch), len(picks))
+        graph = GraphInput(
+            inputs.contiguous(), torch.cat(types), torch.cat(friction), torch.cat(batch), len(picks), torch.cat(static)
+        )
         return Window(graph, positions[:, self.history + 1 :].contiguous())
 
     def draw(self, rng: np.random.Generator, graphs: int) -> list[tuple[int, int]]:

@@ -29,7 +29,7 @@ import numpy as np
 import torch
 
 from rgns.surrogates.gns.graph import radius_graph
-from rgns.surrogates.gns.simulator import GraphInput, LearnedSimulator
+from rgns.surrogates.gns.simulator import GraphInput, LearnedSimulator, static_features
 from rgns.trajectories import SOIL, check_keep, kept_frames
 
 
@@ -87,8 +87,10 @@ def rollout(
     frames: int,
     settings: RolloutSettings | None = None,
     device: str = "cpu",
+    initial: list[np.ndarray] | None = None,
 ) -> list[RolloutResult]:
-    """Roll every realization (history [H+1, N_b, 2]) forward to ``frames`` frames in total."""
+    """Roll every realization (history [H+1, N_b, 2]) forward to ``frames`` frames in total (``initial``: where each
+    realization's particles started [N_b, 2], for a simulator that reads it; None: its history's first frame)."""
     settings = settings or RolloutSettings()
     device = torch.device(device)
     counts = [h.shape[1] for h in histories]
@@ -96,6 +98,12 @@ def rollout(
     types = torch.cat([torch.as_tensor(t, dtype=torch.long) for t in particle_types]).to(device)
     friction = torch.cat([torch.as_tensor(f, dtype=torch.float32) for f in tan_frictions]).to(device)
     batch = torch.cat([torch.full((n,), b, dtype=torch.long) for b, n in enumerate(counts)]).to(device)
+    bounds = simulator.bounds.to(device)
+    static = None
+    if simulator.settings.static_features:
+        starts = initial if initial is not None else [h[0] for h in histories]
+        bounds_m = bounds.cpu().numpy()
+        static = torch.cat([torch.from_numpy(static_features(start, bounds_m)) for start in starts]).to(device)
     n_graphs = len(histories)
     keep_all = settings.keep == "all"
     stored = [list(h.astype(np.float32)) if keep_all else [h[0].astype(np.float32)] for h in histories]
@@ -105,7 +113,6 @@ def rollout(
     peak = torch.zeros(n_graphs, device=device)
     quiet = torch.zeros(n_graphs, dtype=torch.long, device=device)
     origin = history[:, -1].clone()
-    bounds = simulator.bounds.to(device)
     margin = settings.domain_margin_m
     for frame in range(histories[0].shape[0], frames):
         active = live[batch]
@@ -130,7 +137,7 @@ def rollout(
         for _ in range(settings.context_hops):  # neighbours of updated particles give context
             involved[senders[involved[receivers]]] = True
         sub_senders, sub_receivers, ids = _subgraph(senders, receivers, involved)
-        graph = GraphInput(history[ids], types[ids], friction[ids], batch[ids], n_graphs)
+        graph = GraphInput(history, types, friction, batch, n_graphs, static).subset(ids)
         new = history[:, -1].clone()
         predicted = simulator.next_positions(graph, (sub_senders, sub_receivers))
         # the walls and the floor are rigid: a particle the network moves past one stays on it
@@ -207,7 +214,8 @@ def rollout_soil(
     starts = [h[offset:warmup] for h in histories]
     types = [np.full(h.shape[1], SOIL, dtype=np.int64) for h in histories]
     tan_frictions = [np.tan(np.radians(np.asarray(f, dtype=float))).astype(np.float32) for f in friction_deg]
-    results = rollout(simulator, starts, types, tan_frictions, frames - offset, settings, device)
+    initial = [h[0] for h in histories]
+    results = rollout(simulator, starts, types, tan_frictions, frames - offset, settings, device, initial)
     for history, result in zip(histories, results):
         if settings.keep == "all":
             result.positions = np.concatenate([history[:offset], result.positions])

@@ -2,7 +2,9 @@
 
 Inputs per particle are its last ``history + 1`` positions; features are the ``history``
 velocities normalised per axis, the distances to the domain walls over the connectivity radius
-(clipped to ±1), a particle-type embedding and the normalised tan φ; edges carry only relative
+(clipped to ±1), a particle-type embedding and the normalised tan φ, and optionally (``static_features``) where the
+particle started: its height above the floor and its depth below the ground surface of its column, each over
+the domain's height (:func:`static_features`: what lets a rollout from rest know where failure starts); edges carry only relative
 displacement over the radius and its length. The network predicts a normalised acceleration,
 integrated with semi-implicit Euler at dt = 1 frame. Training adds random-walk noise to the input
 positions and corrects the target so the model learns to undo it.
@@ -34,6 +36,7 @@ class ModelSettings:
     history: int = 5
     radius_m: float = 4.0
     acceleration_features: bool = False  # also the history's accelerations, normalised as the targets are
+    static_features: bool = False  # also where each particle started (static_features)
 
 
 @dataclass
@@ -57,6 +60,51 @@ class GraphInput:
     tan_friction: torch.Tensor  # [N]
     batch: torch.Tensor  # [N] graph of each particle
     n_graphs: int
+    static: torch.Tensor | None = None  # [N, STATIC] where each particle started (static_features)
+
+    def moved_to(self, positions: torch.Tensor) -> GraphInput:
+        """The same particles at other positions [N, history + 1, 2]."""
+        return GraphInput(positions, self.particle_type, self.tan_friction, self.batch, self.n_graphs, self.static)
+
+    def subset(self, ids: torch.Tensor) -> GraphInput:
+        """The particles ``ids`` only (of the same graphs)."""
+        static = None if self.static is None else self.static[ids]
+        return GraphInput(
+            self.positions[ids], self.particle_type[ids], self.tan_friction[ids], self.batch[ids], self.n_graphs, static
+        )
+
+    def to(self, device: torch.device) -> GraphInput:
+        static = None if self.static is None else self.static.to(device)
+        return GraphInput(
+            self.positions.to(device),
+            self.particle_type.to(device),
+            self.tan_friction.to(device),
+            self.batch.to(device),
+            self.n_graphs,
+            static,
+        )
+
+
+STATIC = 2
+COLUMN_M = 1.0  # the width of the column whose highest particle is the ground surface above a particle
+
+
+def static_features(initial: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """[N, STATIC] of particles at their start ``initial`` [N, 2]: the height above the floor and the depth below
+    the highest particle within COLUMN_M / 2 across, each over the domain's height."""
+    initial = np.asarray(initial, dtype=np.float64)
+    floor, top = float(bounds[1][0]), float(bounds[1][1])
+    order = np.argsort(initial[:, 0], kind="stable")
+    x, y = initial[order, 0], initial[order, 1]
+    first = np.searchsorted(x, x - COLUMN_M / 2, side="left")
+    last = np.searchsorted(x, x + COLUMN_M / 2, side="right")
+    surface = np.empty_like(y)
+    for k, (a, b) in enumerate(zip(first, last)):
+        surface[k] = y[a:b].max()
+    features = np.empty((len(initial), STATIC))
+    features[order, 0] = (y - floor) / (top - floor)
+    features[order, 1] = (surface - y) / (top - floor)
+    return features.astype(np.float32)
 
 
 class LearnedSimulator(nn.Module):
@@ -73,6 +121,8 @@ class LearnedSimulator(nn.Module):
         node_features = 2 * settings.history + 4 + TYPE_EMBEDDING + 1
         if settings.acceleration_features:
             node_features += 2 * (settings.history - 1)
+        if settings.static_features:
+            node_features += STATIC
         self.network = EncodeProcessDecode(
             node_features,
             3,
@@ -103,9 +153,12 @@ class LearnedSimulator(nn.Module):
         if self.settings.acceleration_features:
             accelerations = raw_velocities[:, 1:] - raw_velocities[:, :-1]
             parts.append(((accelerations - self.acceleration_mean) / self.acceleration_std).flatten(1))
-        nodes = torch.cat(
-            [*parts, walls.clamp(-1.0, 1.0), self.type_embedding(graph.particle_type), tan_friction[:, None]], dim=1
-        )
+        parts += [walls.clamp(-1.0, 1.0), self.type_embedding(graph.particle_type), tan_friction[:, None]]
+        if self.settings.static_features:
+            if graph.static is None:
+                raise ValueError("this GNS reads where each particle started (static_features): the graph has none")
+            parts.append(graph.static)
+        nodes = torch.cat(parts, dim=1)
         displacement = (last[senders] - last[receivers]) / radius
         edges = torch.cat([displacement, displacement.norm(dim=1, keepdim=True)], dim=1)
         return nodes, edges
@@ -147,9 +200,7 @@ class OneStepLoss(nn.Module):
         self.simulator, self.target_clip = simulator, target_clip
 
     def forward(self, graph: GraphInput, target: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
-        noisy = GraphInput(
-            graph.positions + noise, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs
-        )
+        noisy = graph.moved_to(graph.positions + noise)
         # the target keeps the clean next position moved by the last noise step: only velocities are noised
         target_normalized = self.normalized_target(noisy, target + noise[:, -1])
         return self._graph_mean((self.simulator(noisy) - target_normalized).pow(2).sum(dim=1), graph)

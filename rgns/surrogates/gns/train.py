@@ -108,16 +108,6 @@ def learning_rate(settings: TrainSettings, step: int) -> float:
     return (settings.learning_rate - settings.learning_rate_min) * decay + settings.learning_rate_min
 
 
-def _to(graph: GraphInput, device: torch.device) -> GraphInput:
-    return GraphInput(
-        graph.positions.to(device),
-        graph.particle_type.to(device),
-        graph.tan_friction.to(device),
-        graph.batch.to(device),
-        graph.n_graphs,
-    )
-
-
 def pushforward(
     simulator: LearnedSimulator, graph: GraphInput, targets: torch.Tensor
 ) -> tuple[GraphInput, torch.Tensor]:
@@ -125,9 +115,10 @@ def pushforward(
     positions = graph.positions
     with torch.no_grad():
         for _ in range(targets.shape[1] - 1):
-            current = GraphInput(positions, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs)
-            positions = torch.cat([positions[:, 1:], simulator.next_positions(current)[:, None]], dim=1)
-    return GraphInput(positions, graph.particle_type, graph.tan_friction, graph.batch, graph.n_graphs), targets[:, -1]
+            positions = torch.cat(
+                [positions[:, 1:], simulator.next_positions(graph.moved_to(positions))[:, None]], dim=1
+            )
+    return graph.moved_to(positions), targets[:, -1]
 
 
 def load_simulator(path: str | Path, device: str = "cpu") -> LearnedSimulator:
@@ -166,7 +157,7 @@ def one_step_losses(
     model, mean = [], []
     for picks in batches:
         window = sampler.window(picks)
-        graph, target = _to(window.graph, device), window.targets[:, 0].to(device)
+        graph, target = window.graph.to(device), window.targets[:, 0].to(device)
         model.append(float(objective(graph, target, torch.zeros_like(graph.positions))) * len(picks))
         mean.append(float(objective.mean_predictor(graph, target)) * len(picks))
     count = sum(len(picks) for picks in batches)
@@ -362,7 +353,7 @@ def train(
         for group in optimizer.param_groups:
             group["lr"] = learning_rate(settings, step)
         window = train_windows.sample(rng, settings.batch_graphs)
-        graph, targets = _to(window.graph, device), window.targets.to(device)
+        graph, targets = window.graph.to(device), window.targets.to(device)
         if settings.pushforward_steps:
             graph, target = pushforward(simulator, graph, targets)
         else:
