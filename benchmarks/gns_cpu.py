@@ -2,7 +2,8 @@
 curve on a development set, in stretches that resume.
 
     python benchmarks/gns_cpu.py sets  --work W --train T.h5 --valid V.h5 --dev case1.h5 case2.h5 ...
-    python benchmarks/gns_cpu.py train --work W --until 30000 --every 1000 [--static]
+    python benchmarks/gns_cpu.py train --work W --until 30000 --every 2000 [--static] --dev ...
+    python benchmarks/gns_cpu.py report --work W --out benchmarks/results/gns_cpu --dev ...
 
 ``sets`` coarse-grains packed MPM sets (rgns.surrogates.gns.coarse: nodes ``--spacing`` apart, a step of ``--stride``
 frames; the default 0.5 m is the 1 m mesh's particle spacing, a node per particle: 1 m nodes put case 3's runout
@@ -11,7 +12,8 @@ particles' on the development sets.
 ``train`` trains (rgns.surrogates.gns.train; checkpoints in ``W/model``, a killed run resumes) to ``--until``
 steps, and after every ``--every`` steps rolls the development sets out from their first ``history + 1``
 frames and records R², NRMSE and the relative bias of R, V and I per set against the MPM's (on the nodes), with
-bootstrap intervals, in ``W/curve.jsonl``: the decision rule of issue 63 reads it.
+bootstrap intervals, in ``W/curve.jsonl``: the decision rule of issue 63 reads it. ``report`` writes the curve,
+the spec and the nodes' fidelity as ``OUT.json`` and a table as ``OUT.md``.
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import subprocess
+import sys
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -86,18 +90,24 @@ def make_sets(work: Path, train_set: Path, valid_set: Path, dev: list[Path], spa
                 {"set": source.stem, **{f"{k}_particles": particles[k] for k in METRICS}}
                 | {f"{k}_nodes": nodes[k] for k in METRICS}
             )
-    report = {
-        metric: asdict(
-            agreement(
-                np.array([r[f"{metric}_particles"] for r in rows]),
-                np.array([r[f"{metric}_nodes"] for r in rows]),
-                metric,
+
+    def agreements(chosen: list[dict]) -> dict:
+        return {
+            metric: asdict(
+                agreement(
+                    np.array([r[f"{metric}_particles"] for r in chosen]),
+                    np.array([r[f"{metric}_nodes"] for r in chosen]),
+                    metric,
+                )
             )
-        )
-        for metric in METRICS
-    }
+            for metric in METRICS
+        }
+
+    report = {"spacing_m": spacing_m, "stride_frames": stride, "runs": len(rows)} | agreements(rows)
+    report["sets"] = {p.stem: agreements([r for r in rows if r["set"] == p.stem]) for p in dev}
     (work / "nodes_vs_particles.json").write_text(json.dumps(report, indent=1))
-    for metric, row in report.items():
+    for metric in METRICS:
+        row = report[metric]
         print(
             f"nodes vs particles, {metric}: R² {row['r2']:.3f} [{row['r2_low']:.3f}, {row['r2_high']:.3f}], "
             f"relative bias {row['relative_bias']:+.3f} ({row['n']} runs)"
@@ -106,9 +116,10 @@ def make_sets(work: Path, train_set: Path, valid_set: Path, dev: list[Path], spa
 
 @torch.no_grad()
 def evaluate(model_path: Path, dev: list[Path], history: int) -> dict:
-    """R², NRMSE and relative bias of R, V, I per development set, rolled out from the first frames."""
+    """R², NRMSE and relative bias of R, V, I per development set and pooled over all ("all"), rolled out from the
+    first frames; each run's MPM and GNS values kept ("runs")."""
     simulator = load_simulator(model_path)
-    out = {}
+    out, pooled = {}, {"mpm": [], "gns": []}
     for path in dev:
         sampler = WindowSampler(str(path), history)
         truths = [sampler.frames_of(k, 0, sampler.frames) for k in range(sampler.n_trajectories)]
@@ -120,14 +131,23 @@ def evaluate(model_path: Path, dev: list[Path], history: int) -> dict:
         seconds = time.perf_counter() - began
         mpm = [metrics_of(t[0], t[-1], v) for t, v in zip(truths, sampler.volume_m2)]
         gns = [metrics_of(t[0], r.positions[-1], v) for t, r, v in zip(truths, results, sampler.volume_m2)]
-        rows = {}
-        for metric in METRICS:
-            found = agreement(np.array([m[metric] for m in mpm]), np.array([g[metric] for g in gns]), metric)
-            rows[metric] = {key: getattr(found, key) for key in ("r2", "r2_low", "r2_high", "nrmse", "relative_bias")}
-        rows["diverged"] = sum(r.status != "ok" for r in results)
-        rows["rollout_s_per_realization"] = seconds / len(results)
-        out[path.stem] = rows
+        pooled["mpm"] += mpm
+        pooled["gns"] += gns
+        out[path.stem] = agreements(mpm, gns) | {
+            "diverged": sum(r.status != "ok" for r in results),
+            "rollout_s_per_realization": seconds / len(results),
+            "runs": {"mpm": [[m[k] for k in METRICS] for m in mpm], "gns": [[g[k] for k in METRICS] for g in gns]},
+        }
+    out["all"] = agreements(pooled["mpm"], pooled["gns"])
     return out
+
+
+def agreements(mpm: list[dict], gns: list[dict]) -> dict:
+    rows = {}
+    for metric in METRICS:
+        found = agreement(np.array([m[metric] for m in mpm]), np.array([g[metric] for g in gns]), metric)
+        rows[metric] = {key: getattr(found, key) for key in ("r2", "r2_low", "r2_high", "nrmse", "relative_bias")}
+    return rows
 
 
 def train_in_stretches(work: Path, dev: list[Path], until: int, every: int, static: bool, radius_m: float) -> None:
@@ -147,9 +167,76 @@ def train_in_stretches(work: Path, dev: list[Path], until: int, every: int, stat
         print(json.dumps({"step": target} | {k: v["runout_m"] for k, v in row["dev"].items()}), flush=True)
 
 
+BAR = 0.8  # the decision rule: pooled runout R² over the development runs at two evaluations in a row
+
+
+def rule_power(dev: list[Path], trials: int = 20000) -> dict:
+    """How often the decision rule passes a model whose errors give a true pooled runout R² of r (unbiased normal
+    errors on the development runs' own MPM runouts), once and at two independent evaluations in a row."""
+    runouts = np.concatenate(
+        [[metrics_of(t.positions[0], t.positions[-1], t.volume_m2)["runout_m"] for t in read_packed(p)] for p in dev]
+    )
+    rng = np.random.default_rng(63)
+    spread = ((runouts - runouts.mean()) ** 2).sum()
+    power = {}
+    for true in (0.95, 0.9, 0.85, 0.8, 0.7):
+        errors = rng.normal(0.0, np.sqrt(runouts.var() * (1.0 - true)), (trials, runouts.size))
+        once = float(np.mean(1.0 - (errors**2).sum(1) / spread >= BAR))
+        power[str(true)] = {"once": once, "twice": once**2}
+    return {"bar": BAR, "runs": int(runouts.size), "trials": trials, "pass_rate_by_true_r2": power}
+
+
+def report(
+    work: Path, out: Path, command: str, static: bool, radius_m: float, coarser: Path | None, dev: list[Path]
+) -> None:
+    """The curve as OUT.json (with the spec the training ran: give ``report`` its ``--static`` and ``--radius``),
+    and ``coarser``'s nodes against the particles (a ``sets`` work folder of another spacing) beside the run's."""
+    rows = [json.loads(line) for line in (work / "curve.jsonl").read_text().splitlines()]
+    model, training = spec(static, radius_m)
+    trained = f"python benchmarks/gns_cpu.py train --work {work}" + (" --static" if static else "")
+    record = {
+        "command": command,
+        "train_command": f"{trained} --radius {radius_m:g} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
+        "commit": subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip(),
+        "model": asdict(model),
+        "training": asdict(training),
+        "nodes_vs_particles": json.loads((work / "nodes_vs_particles.json").read_text()),
+        "coarser_nodes_vs_particles": json.loads((coarser / "nodes_vs_particles.json").read_text())
+        if coarser
+        else None,
+        "curve": rows,
+        "decision_rule": rule_power(dev),
+    }
+    out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
+    sets = [name for name in rows[-1]["dev"] if name != "all"]
+    lines = [
+        "# A lean GNS on one CPU thread, rolled out from the first frames",
+        "",
+        f"`{record['train_command']}`, then `{command}` at {record['commit'][:10]}: R² of each development set's 16 runs against the MPM's (1 m, "
+        "rolled out from the first 6 frames at a step of 4 frames), 95 % bootstrap interval; relative bias of R.",
+        "",
+        "| steps | wall (min) | all R: R² | " + " | ".join(f"{name} R: R² | bias" for name in sets) + " | diverged |",
+        "|---:|---:|---|" + "---|---:|" * len(sets) + "---:|",
+    ]
+    for row in rows:
+        cells = []
+        for name in sets:
+            r = row["dev"][name]["runout_m"]
+            cells += [f"{r['r2']:.2f} [{r['r2_low']:.2f}, {r['r2_high']:.2f}]", f"{r['relative_bias']:+.1%}"]
+        diverged = sum(row["dev"][name]["diverged"] for name in sets)
+        pooled = row["dev"].get("all", {}).get("runout_m")
+        overall = f"{pooled['r2']:.2f} [{pooled['r2_low']:.2f}, {pooled['r2_high']:.2f}]" if pooled else "—"
+        lines.append(
+            f"| {row['step']:,} | {row['wall_s'] / 60:.0f} | {overall} | " + " | ".join(cells) + f" | {diverged} |"
+        )
+    out.with_suffix(".md").write_text("\n".join(lines) + "\n")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("action", choices=["sets", "train"])
+    parser.add_argument("action", choices=["sets", "train", "report"])
+    parser.add_argument("--out", type=Path, help="report: the result files' path without suffix")
+    parser.add_argument("--coarser", type=Path, help="report: a sets work folder of coarser nodes, to compare")
     parser.add_argument("--work", type=Path, required=True)
     parser.add_argument("--train", type=Path)
     parser.add_argument("--valid", type=Path)
@@ -165,8 +252,11 @@ def main() -> None:
     torch.set_num_threads(1)
     if args.action == "sets":
         make_sets(args.work, args.train, args.valid, args.dev, args.spacing, args.stride)
-    else:
+    elif args.action == "train":
         train_in_stretches(args.work, args.dev, args.until, args.every, args.static, args.radius)
+    else:
+        command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
+        report(args.work, args.out, command, args.static, args.radius, args.coarser, args.dev)
 
 
 if __name__ == "__main__":

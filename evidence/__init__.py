@@ -50,7 +50,7 @@ from evidence.fidelity import (
     tuned_least,
     tuned_speedups,
 )
-from evidence.gns import gns_handover, gns_jitter, gns_recipe, gns_shipped, gns_training
+from evidence.gns import gns_cpu, gns_handover, gns_jitter, gns_recipe, gns_shipped, gns_training
 from evidence.runs import (
     default_headline,
     default_run,
@@ -82,6 +82,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "gns-jitter": gns_jitter,
     "gns-handover": gns_handover,
     "gns-shipped": gns_shipped,
+    "gns-cpu": gns_cpu,
     "default-run": default_run,
     "default-headline": default_headline,
     "site-run": site_run,

@@ -117,3 +117,51 @@ def gns_shipped() -> str:
         f"{kept['valid_runout_error_m']:.2f} m; the last step's: {last['valid_runout_error_m']:.2f} m) "
         "(`rgns/models/card.json`)."
     )
+
+
+def gns_cpu() -> str:
+    """docs/gns-training.md: the lean GNS's learning curve on one CPU thread, rolled out from the first frames
+    (gns_cpu.json), and why it runs on the particles, not on 1 m nodes."""
+    record = result("gns_cpu.json")
+    model, training, rows = record["model"], record["training"], record["curve"]
+    sets = [name for name in rows[-1]["dev"] if name != "all"]
+    lines = [
+        f"Latent {model['latent_size']}, {model['message_passing_steps']} message-passing steps, radius "
+        f"{model['radius_m']:g} m, history {model['history']}"
+        + (", where each particle started (height, depth)" if model["static_features"] else "")
+        + f"; {training['batch_graphs']} windows a step, noise {training['noise_std']:g} m, learning rate "
+        f"{training['learning_rate']:g} annealed over {training['decay_steps']:,} steps; one thread. Runout R² of "
+        "each test case's 16 development runs against the MPM's, rolled out from their first "
+        f"{model['history'] + 1} frames (95 % bootstrap interval), and R's relative bias:",
+        "",
+        "| steps | wall | all 64: R² | " + " | ".join(f"{name}: R² | bias" for name in sets) + " |",
+        "|---:|---:|---|" + "---|---:|" * len(sets),
+    ]
+    for row in rows:
+        cells = []
+        for name in sets:
+            r = row["dev"][name]["runout_m"]
+            cells += [f"{r['r2']:.2f} [{r['r2_low']:.2f}, {r['r2_high']:.2f}]", f"{r['relative_bias']:+.0%}"]
+        pooled = row["dev"].get("all", {}).get("runout_m")
+        overall = f"{pooled['r2']:.2f} [{pooled['r2_low']:.2f}, {pooled['r2_high']:.2f}]" if pooled else "—"
+        lines.append(f"| {row['step']:,} | {minutes(row['wall_s'])} | {overall} | " + " | ".join(cells) + " |")
+    coarse = record["coarser_nodes_vs_particles"]
+    case3 = coarse["sets"]["case3"]["runout_m"]
+    lines += [
+        "",
+        f"`{record['train_command']}`, then `{record['command']}`: `benchmarks/results/gns_cpu.json` "
+        f"{made_note(record)}. A node per particle: "
+        f"{coarse['spacing_m']:g} m nodes (the mass centre of a cell's points) measure a runout of their own, R² "
+        f"{coarse['runout_m']['r2']:.2f} [{coarse['runout_m']['r2_low']:.2f}, {coarse['runout_m']['r2_high']:.2f}] "
+        f"against the particles' over the {coarse['runs']} runs, case 3's {-case3['bias']:.1f} m short.",
+    ]
+    rule = record["decision_rule"]
+    rates = rule["pass_rate_by_true_r2"]
+    lines += [
+        "",
+        f"The decision rule, before any spec change is judged: pooled runout R² over the {rule['runs']} development "
+        f"runs ≥ {rule['bar']:g} at two evaluations in a row. A model whose true R² is 0.85 passes it in "
+        f"{rates['0.85']['twice']:.0%} of development sets, one of 0.9 in {rates['0.9']['twice']:.0%}, one of 0.7 "
+        f"in {rates['0.7']['twice']:.1%} ({rule['trials']:,} simulated sets of unbiased normal errors).",
+    ]
+    return "\n".join(lines)
