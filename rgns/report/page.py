@@ -274,17 +274,27 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
     return line + ".", excluded
 
 
-def cautions(record: dict[str, Any], p: str | None, upper: float | None, mesh_step: float | None) -> list[str]:
-    """Why to read one number of the answer with care, each reason in a few words (none where nothing is known against it):
-    a best estimate by the MPM alone, a mean left at the accurate mesh, a tail distance whose mesh step is
-    modelled (beyond the pairs, where fewer than one is expected past P), an interval these runs leave open."""
+INFLUENCE_UNCONVERGED = (
+    "no converged value under refinement: on finer meshes a few surface points lifted far behind the crest set it "
+    "(docs/evidence.md)"
+)
+
+
+def cautions(
+    record: dict[str, Any], key: str, p: str | None, upper: float | None, mesh_step: float | None
+) -> list[str]:
+    """Why to read one number (of quantity ``key``) of the answer with care, each reason in a few words (none where
+    nothing is known against it): a best estimate by the MPM alone, a number left at the accurate mesh (the
+    influence distance: it has no converged value), a tail distance whose mesh step is modelled (beyond the pairs,
+    where fewer than one is expected past P), an interval these runs leave open."""
     said = []
     if record.get("route_applied") == "plain MPM":
         said.append(f"the MPM alone over {record['n_paired']} realizations: the cheap route does not pay")
     if "converged" in record:
         pairs = record["converged"]["n_pairs"]
         if mesh_step is None:
-            said.append(f"at {record['high_cell_size_m']:g} m cells: no convergence order measured")
+            why = INFLUENCE_UNCONVERGED if key == "influence_m" else "no convergence order measured"
+            said.append(f"at {record['high_cell_size_m']:g} m cells: {why}")
         elif p is not None and float(p) <= TAIL_PROBABILITY:
             said.append(f"mesh step modelled from the cheap route's regressions: {TAIL_COVERAGE}")
             if pairs * float(p) < 1.0:
@@ -328,7 +338,7 @@ def headline_rows(record: dict[str, Any]) -> tuple[list[dict[str, Any]], list[st
             "best estimate": value,
             f"{record['confidence']:.0%} interval": interval_text(lower, upper),
             "mesh": "converged" if mesh_step is not None else f"{high:g} m",
-            "note": marks(cautions(record, p, upper, mesh_step)),
+            "note": marks(cautions(record, key, p, upper, mesh_step)),
         }
 
     if "converged" in record:
