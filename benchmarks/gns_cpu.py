@@ -42,7 +42,7 @@ from rgns.trajectories import read_packed
 METRICS = ("runout_m", "volume_m2", "influence_m")
 
 
-def spec(static: bool, radius_m: float) -> tuple[ModelSettings, TrainSettings]:
+def spec(static: bool, radius_m: float, moving_weight: float = 0.0) -> tuple[ModelSettings, TrainSettings]:
     """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings."""
     model = ModelSettings(
         latent_size=64,
@@ -60,6 +60,7 @@ def spec(static: bool, radius_m: float) -> tuple[ModelSettings, TrainSettings]:
         decay_rate=0.01,
         decay_steps=30000,  # fixed: a longer run continues the same schedule
         noise_std=1e-3,
+        moving_weight=moving_weight,
         smoothing_frames=1.0,
         checkpoint_every=250,
         validate_every=1000,
@@ -150,8 +151,10 @@ def agreements(mpm: list[dict], gns: list[dict]) -> dict:
     return rows
 
 
-def train_in_stretches(work: Path, dev: list[Path], until: int, every: int, static: bool, radius_m: float) -> None:
-    model, training = spec(static, radius_m)
+def train_in_stretches(
+    work: Path, dev: list[Path], until: int, every: int, static: bool, radius_m: float, moving_weight: float
+) -> None:
+    model, training = spec(static, radius_m, moving_weight)
     sets = work / "sets"
     curve = work / "curve.jsonl"
     done = {json.loads(line)["step"] for line in curve.read_text().splitlines()} if curve.exists() else set()
@@ -187,13 +190,21 @@ def rule_power(dev: list[Path], trials: int = 20000) -> dict:
 
 
 def report(
-    work: Path, out: Path, command: str, static: bool, radius_m: float, coarser: Path | None, dev: list[Path]
+    work: Path,
+    out: Path,
+    command: str,
+    static: bool,
+    radius_m: float,
+    moving_weight: float,
+    coarser: Path | None,
+    dev: list[Path],
 ) -> None:
     """The curve as OUT.json (with the spec the training ran: give ``report`` its ``--static`` and ``--radius``),
     and ``coarser``'s nodes against the particles (a ``sets`` work folder of another spacing) beside the run's."""
     rows = [json.loads(line) for line in (work / "curve.jsonl").read_text().splitlines()]
-    model, training = spec(static, radius_m)
+    model, training = spec(static, radius_m, moving_weight)
     trained = f"python benchmarks/gns_cpu.py train --work {work}" + (" --static" if static else "")
+    trained += f" --moving-weight {moving_weight:g}" if moving_weight else ""
     record = {
         "command": command,
         "train_command": f"{trained} --radius {radius_m:g} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
@@ -246,6 +257,7 @@ def main() -> None:
     parser.add_argument("--spacing", type=float, default=0.5, help="node spacing (m)")
     parser.add_argument("--stride", type=int, default=4, help="MPM frames a GNS step spans")
     parser.add_argument("--radius", type=float, default=1.1, help="connectivity radius (m)")
+    parser.add_argument("--moving-weight", type=float, default=0.0, help="extra loss weight of moving particles")
     parser.add_argument("--static", action="store_true", help="give nodes where they started (static_features)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
@@ -253,10 +265,10 @@ def main() -> None:
     if args.action == "sets":
         make_sets(args.work, args.train, args.valid, args.dev, args.spacing, args.stride)
     elif args.action == "train":
-        train_in_stretches(args.work, args.dev, args.until, args.every, args.static, args.radius)
+        train_in_stretches(args.work, args.dev, args.until, args.every, args.static, args.radius, args.moving_weight)
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
-        report(args.work, args.out, command, args.static, args.radius, args.coarser, args.dev)
+        report(args.work, args.out, command, args.static, args.radius, args.moving_weight, args.coarser, args.dev)
 
 
 if __name__ == "__main__":

@@ -11,7 +11,14 @@ import torch
 from rgns.surrogates.gns.coarse import coarse_set, coarse_trajectory, node_labels
 from rgns.surrogates.gns.data import WindowSampler
 from rgns.surrogates.gns.rollout import RolloutSettings, rollout_soil
-from rgns.surrogates.gns.simulator import LearnedSimulator, ModelSettings, Normalization, static_features
+from rgns.surrogates.gns.simulator import (
+    GraphInput,
+    LearnedSimulator,
+    ModelSettings,
+    Normalization,
+    OneStepLoss,
+    static_features,
+)
 from rgns.trajectories import SOIL, Trajectory, TrajectoryError, pack_trajectories, read_packed
 
 BOUNDS = np.array([[0.0, 20.0], [0.0, 10.0]])
@@ -107,3 +114,21 @@ def test_a_gns_with_static_features_reads_them_in_training_windows_and_rollouts(
     friction = [np.degrees(np.arctan(sampler.tan_friction[0].numpy()))]
     (result,) = rollout_soil(simulator, [truth], friction, sampler.frames, RolloutSettings(keep="ends"))
     assert result.status == "ok" and result.positions.shape == (3, truth.shape[1], 2)
+
+
+def test_a_moving_weight_counts_moving_particles_more_in_their_graphs_mean():
+    """Two graphs: in each, moving particles weigh 1 + w; w = 0 is the plain per-graph mean."""
+    settings = ModelSettings(
+        latent_size=8, mlp_width=8, mlp_hidden_layers=1, message_passing_steps=1, history=2, radius_m=1.2
+    )
+    normalization = Normalization([0.0, 0.0], [1.0, 1.0], [0.0, 0.0], [1.0, 1.0], 0.7, 0.1)
+    simulator = LearnedSimulator(settings, normalization, BOUNDS)
+    positions = torch.zeros(4, 3, 2)
+    positions[:, :, 0] = torch.tensor([1.0, 3.0, 5.0, 7.0])[:, None]
+    target = positions[:, -1].clone()
+    target[[0, 2], 0] += 0.2  # particles 0 and 2 move 0.2 m in the last step: acceleration 0.2
+    graph = GraphInput(positions, torch.full((4,), SOIL), torch.full((4,), 0.7), torch.tensor([0, 0, 1, 1]), 2)
+    plain = OneStepLoss(simulator).mean_predictor(graph, target)
+    weighted = OneStepLoss(simulator, moving_weight=3.0).mean_predictor(graph, target)
+    assert float(plain) == pytest.approx(0.04 / 2)  # each graph: (0.04 + 0) / 2
+    assert float(weighted) == pytest.approx(4 * 0.04 / 5)  # each graph: (4 · 0.04 + 0) / (4 + 1)

@@ -192,22 +192,40 @@ def random_walk_noise(
 class OneStepLoss(nn.Module):
     """MSE of normalised accelerations, averaged per graph then over graphs (so each trajectory
     weighs the same whatever its size, and a batch split across processes averages to the same
-    gradient). Normalised targets are clipped at ``target_clip``. Calling this module, wrapped or
-    not in DistributedDataParallel, is one step."""
+    gradient). Normalised targets are clipped at ``target_clip``. With ``moving_weight`` w > 0 a particle
+    that moves more than ``moving_m`` over its window (history and target) weighs 1 + w in its graph's mean,
+    so that material at rest, most of a slope most of the time, does not swamp the loss. Calling this module,
+    wrapped or not in DistributedDataParallel, is one step."""
 
-    def __init__(self, simulator: LearnedSimulator, target_clip: float | None = None):
+    def __init__(
+        self,
+        simulator: LearnedSimulator,
+        target_clip: float | None = None,
+        moving_weight: float = 0.0,
+        moving_m: float = 0.05,
+    ):
         super().__init__()
         self.simulator, self.target_clip = simulator, target_clip
+        self.moving_weight, self.moving_m = moving_weight, moving_m
 
     def forward(self, graph: GraphInput, target: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
         noisy = graph.moved_to(graph.positions + noise)
         # the target keeps the clean next position moved by the last noise step: only velocities are noised
         target_normalized = self.normalized_target(noisy, target + noise[:, -1])
-        return self._graph_mean((self.simulator(noisy) - target_normalized).pow(2).sum(dim=1), graph)
+        error = (self.simulator(noisy) - target_normalized).pow(2).sum(dim=1)
+        return self._graph_mean(error, graph, self.weights(graph, target))
 
     def mean_predictor(self, graph: GraphInput, target: torch.Tensor) -> torch.Tensor:
         """The loss of always predicting the mean acceleration (0 normalised), noise-free: the baseline."""
-        return self._graph_mean(self.normalized_target(graph, target).pow(2).sum(dim=1), graph)
+        error = self.normalized_target(graph, target).pow(2).sum(dim=1)
+        return self._graph_mean(error, graph, self.weights(graph, target))
+
+    def weights(self, graph: GraphInput, target: torch.Tensor) -> torch.Tensor | None:
+        """Each particle's weight [N] in its graph's mean (None: all alike)."""
+        if not self.moving_weight:
+            return None
+        moved = (target - graph.positions[:, 0]).norm(dim=1) > self.moving_m
+        return 1.0 + self.moving_weight * moved.to(target.dtype)
 
     def normalized_target(self, graph: GraphInput, target: torch.Tensor) -> torch.Tensor:
         """The acceleration that reaches ``target`` from the last two positions, normalised and clipped."""
@@ -219,7 +237,12 @@ class OneStepLoss(nn.Module):
         return normalized
 
     @staticmethod
-    def _graph_mean(error: torch.Tensor, graph: GraphInput) -> torch.Tensor:
+    def _graph_mean(error: torch.Tensor, graph: GraphInput, weights: torch.Tensor | None = None) -> torch.Tensor:
+        if weights is not None:
+            error = error * weights
         per_graph = torch.zeros(graph.n_graphs, device=error.device).index_add_(0, graph.batch, error)
-        counts = torch.bincount(graph.batch, minlength=graph.n_graphs).clamp_min(1)
+        if weights is None:
+            counts = torch.bincount(graph.batch, minlength=graph.n_graphs).clamp_min(1)
+        else:
+            counts = torch.zeros(graph.n_graphs, device=error.device).index_add_(0, graph.batch, weights)
         return (per_graph / counts).mean()

@@ -66,6 +66,7 @@ class TrainSettings:
     smoothing_frames: float = 2.0
     target_clip: float = 25.0
     pushforward_steps: int = 0
+    moving_weight: float = 0.0  # extra weight of a particle that moves over its window (OneStepLoss)
     checkpoint_every: int = 200
     validate_every: int = 200
     validation_windows: int = 128
@@ -153,7 +154,7 @@ def one_step_losses(
 ) -> tuple[float, float]:
     """The model's noise-free one-step loss and the mean predictor's (always the mean acceleration,
     i.e. 0 in normalised units) on the same windows."""
-    objective = OneStepLoss(simulator, target_clip)
+    objective = OneStepLoss(simulator, target_clip)  # unweighted: comparable across moving_weight
     model, mean = [], []
     for picks in batches:
         window = sampler.window(picks)
@@ -243,11 +244,15 @@ def fingerprint(simulator: LearnedSimulator, settings: TrainSettings) -> str:
 
 def _saved_fingerprint(state: dict[str, Any]) -> str | None:
     """A checkpoint's fingerprint as :func:`fingerprint` writes it now (one written with its normalisation in
-    it, before that was compared apart, read without it)."""
+    it, before that was compared apart, read without it; one written before a setting existed, with the value
+    that reproduces how it trained: TrainSettings' and ModelSettings' defaults)."""
     if "fingerprint" not in state:
         return None
     saved = json.loads(state["fingerprint"])
     saved["simulator"].pop("normalization", None)
+    saved["simulator"]["settings"] = asdict(ModelSettings()) | saved["simulator"]["settings"]
+    neutral = {key: value for key, value in asdict(TrainSettings()).items() if key not in RESUME_NEUTRAL}
+    saved["training"] = neutral | saved["training"]
     return json.dumps(saved, sort_keys=True)
 
 
@@ -325,7 +330,7 @@ def train(
             log.warning("%s was made with %s: kept as %s, training from scratch", latest, reason, stale)
             state = None
     simulator = simulator.to(device)
-    objective = OneStepLoss(simulator, settings.target_clip)
+    objective = OneStepLoss(simulator, settings.target_clip, settings.moving_weight)
     step_module = DistributedDataParallel(objective) if distributed else objective
     optimizer = torch.optim.Adam(simulator.parameters(), lr=settings.learning_rate)
     start, history, elapsed, best = 0, [], 0.0, None
