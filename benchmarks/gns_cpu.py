@@ -170,23 +170,33 @@ def train_in_stretches(
         print(json.dumps({"step": target} | {k: v["runout_m"] for k, v in row["dev"].items()}), flush=True)
 
 
-BAR = 0.8  # the decision rule: pooled runout R² over the development runs at two evaluations in a row
+BAR = 0.8  # the decision rule: every development set's runout R² at two evaluations in a row (the pooled R² over
+# the four cases measures mostly how their runouts differ: 0.90 at 4,000 steps where three cases had about 0)
 
 
 def rule_power(dev: list[Path], trials: int = 20000) -> dict:
-    """How often the decision rule passes a model whose errors give a true pooled runout R² of r (unbiased normal
-    errors on the development runs' own MPM runouts), once and at two independent evaluations in a row."""
-    runouts = np.concatenate(
-        [[metrics_of(t.positions[0], t.positions[-1], t.volume_m2)["runout_m"] for t in read_packed(p)] for p in dev]
-    )
+    """How often the decision rule passes a model whose errors give a true runout R² of r in every development set
+    (unbiased normal errors on each set's own MPM runouts), at one evaluation and at two independent ones."""
+    sets = [
+        np.array([metrics_of(t.positions[0], t.positions[-1], t.volume_m2)["runout_m"] for t in read_packed(p)])
+        for p in dev
+    ]
     rng = np.random.default_rng(63)
-    spread = ((runouts - runouts.mean()) ** 2).sum()
     power = {}
     for true in (0.95, 0.9, 0.85, 0.8, 0.7):
-        errors = rng.normal(0.0, np.sqrt(runouts.var() * (1.0 - true)), (trials, runouts.size))
-        once = float(np.mean(1.0 - (errors**2).sum(1) / spread >= BAR))
+        passed = np.ones(trials, dtype=bool)
+        for runouts in sets:
+            errors = rng.normal(0.0, np.sqrt(runouts.var() * (1.0 - true)), (trials, runouts.size))
+            passed &= 1.0 - (errors**2).sum(1) / ((runouts - runouts.mean()) ** 2).sum() >= BAR
+        once = float(passed.mean())
         power[str(true)] = {"once": once, "twice": once**2}
-    return {"bar": BAR, "runs": int(runouts.size), "trials": trials, "pass_rate_by_true_r2": power}
+    return {
+        "bar": BAR,
+        "sets": [p.stem for p in dev],
+        "runs": [len(r) for r in sets],
+        "trials": trials,
+        "pass_rate_by_true_r2": power,
+    }
 
 
 def report(
