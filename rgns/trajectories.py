@@ -246,39 +246,39 @@ def pack(
     paths = [path for path in paths if statuses[str(path)] == "ok"]
     if not paths:
         raise TrajectoryError(f"set {set_name}: no finished realization to pack ({len(excluded)} diverged)")
-    return pack_trajectories(
-        (read_trajectory(path) for path in paths), out_path, set_name, compression, excluded
-    ), excluded
+    sources = ((str(path), read_trajectory(path)) for path in paths)
+    return pack_trajectories(sources, out_path, set_name, compression, excluded), excluded
 
 
 def pack_trajectories(
-    trajectories: Iterable[Trajectory],
+    sources: Iterable[tuple[str, Trajectory]],
     out_path: str | Path,
     set_name: str,
     compression: str = "gzip",
     excluded: list[str] | None = None,
 ) -> MotionStatistics:
-    """Pack trajectories of one frame layout into a set file with motion statistics (``excluded``: what was left
-    out, recorded in the file)."""
+    """Pack trajectories of one frame layout, each named by where it came from (``sources``: name, trajectory),
+    into a set file with motion statistics (``excluded``: what was left out, recorded in the file)."""
     with _atomic_h5(out_path) as handle:
         handle.attrs["set_name"] = set_name
         handle.attrs["excluded"] = json.dumps(excluded or [])
         group = handle.create_group("trajectories")
-        first: list[Trajectory] = []
+        first: list[tuple[str, Trajectory]] = []
 
         def copied() -> Iterator[Trajectory]:
-            for trajectory in trajectories:
+            for source, trajectory in sources:
                 if not first:
-                    first.append(trajectory)
+                    first.append((source, trajectory))
                     handle.attrs["frame_interval_s"] = trajectory.frame_interval_s
                     handle.attrs["bounds"] = trajectory.bounds
-                elif (
-                    trajectory.frame_interval_s != first[0].frame_interval_s or trajectory.n_frames != first[0].n_frames
+                elif (trajectory.frame_interval_s, trajectory.n_frames) != (
+                    first[0][1].frame_interval_s,
+                    first[0][1].n_frames,
                 ):
+                    name, one = first[0]
                     raise TrajectoryError(
-                        f"{trajectory.set_name} {trajectory.index:04d}: {trajectory.n_frames} frames at "
-                        f"{trajectory.frame_interval_s} s, but {first[0].set_name} {first[0].index:04d} has "
-                        f"{first[0].n_frames} at {first[0].frame_interval_s} s; a set needs one frame layout"
+                        f"{source}: {trajectory.n_frames} frames at {trajectory.frame_interval_s} s, but {name} has "
+                        f"{one.n_frames} at {one.frame_interval_s} s; a set needs one frame layout"
                     )
                 _write_group(group.create_group(f"{trajectory.index:04d}"), trajectory, compression)
                 yield trajectory

@@ -78,12 +78,12 @@ def test_the_last_frame_is_kept_whatever_the_stride_and_a_node_per_particle_is_t
 
 
 def test_a_coarse_set_packs_every_trajectory_and_refuses_mixed_frame_layouts(tmp_path):
-    pack_trajectories([_slumping_slope(0), _slumping_slope(1)], tmp_path / "train.h5", "train")
+    pack_trajectories([("a", _slumping_slope(0)), ("b", _slumping_slope(1))], tmp_path / "train.h5", "train")
     assert coarse_set(tmp_path / "train.h5", tmp_path / "coarse.h5", 1.0, 2) == 2
     read = list(read_packed(tmp_path / "coarse.h5"))
     assert [t.n_frames for t in read] == [21, 21] and read[0].provenance["coarse"]["stride_frames"] == 2
-    with pytest.raises(TrajectoryError, match="one frame layout"):
-        pack_trajectories([_slumping_slope(0), _slumping_slope(1, frames=30)], tmp_path / "mixed.h5", "mixed")
+    with pytest.raises(TrajectoryError, match="b: 30 frames at 0.1 s, but a has 41 .* one frame layout"):
+        pack_trajectories([("a", _slumping_slope(0)), ("b", _slumping_slope(1, frames=30))], tmp_path / "mixed.h5", "m")
     with pytest.raises(ValueError, match="stride"):
         coarse_trajectory(_slumping_slope(), 1.0, 0)
 
@@ -96,7 +96,7 @@ def test_static_features_give_height_above_the_floor_and_depth_below_the_surface
 
 
 def test_a_gns_with_static_features_reads_them_in_training_windows_and_rollouts(tmp_path):
-    pack_trajectories([replace(_slumping_slope(0), set_name="valid")], tmp_path / "valid.h5", "valid")
+    pack_trajectories([("a", replace(_slumping_slope(0), set_name="valid"))], tmp_path / "valid.h5", "valid")
     sampler = WindowSampler(str(tmp_path / "valid.h5"), 3)
     window = sampler.sample(np.random.default_rng(0), 2)
     assert window.graph.static is not None and window.graph.static.shape == (len(window.graph.batch), 2)

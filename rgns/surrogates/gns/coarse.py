@@ -73,10 +73,12 @@ def coarse_set(packed: str | Path, out_path: str | Path, spacing_m: float, strid
     frames = {t.n_frames for t in trajectories}
     if len(frames) > 1:
         raise TrajectoryError(f"{packed}: trajectories of {sorted(frames)} frames; a set needs one frame layout")
-    pack_trajectories(_coarse_all(trajectories, spacing_m, stride), out_path, trajectories[0].set_name)
+    pack_trajectories(_coarse_all(packed, trajectories, spacing_m, stride), out_path, trajectories[0].set_name)
     return len(trajectories)
 
 
-def _coarse_all(trajectories: Iterable[Trajectory], spacing_m: float, stride: int) -> Iterator[Trajectory]:
+def _coarse_all(
+    packed: str | Path, trajectories: Iterable[Trajectory], spacing_m: float, stride: int
+) -> Iterator[tuple[str, Trajectory]]:
     for trajectory in trajectories:
-        yield coarse_trajectory(trajectory, spacing_m, stride)
+        yield f"{packed} trajectory {trajectory.index:04d}", coarse_trajectory(trajectory, spacing_m, stride)
