@@ -82,30 +82,18 @@ def make_sets(work: Path, train_set: Path, valid_set: Path, dev: list[Path], spa
     for source in [train_set, valid_set, *dev]:
         count = coarse_set(source, out / source.name, spacing_m, stride)
         print(f"{source} -> {out / source.name}: {count} trajectories")
-    rows = []
+    rows = []  # (set, the particles' R, V, I, the nodes')
     for source in dev:
         for fine, coarse in zip(read_packed(source), read_packed(out / source.name)):
             particles = metrics_of(fine.positions[0], fine.positions[-1], fine.volume_m2)
             nodes = metrics_of(coarse.positions[0], coarse.positions[-1], coarse.volume_m2)
-            rows.append(
-                {"set": source.stem, **{f"{k}_particles": particles[k] for k in METRICS}}
-                | {f"{k}_nodes": nodes[k] for k in METRICS}
-            )
+            rows.append((source.stem, particles, nodes))
 
-    def agreements(chosen: list[dict]) -> dict:
-        return {
-            metric: asdict(
-                agreement(
-                    np.array([r[f"{metric}_particles"] for r in chosen]),
-                    np.array([r[f"{metric}_nodes"] for r in chosen]),
-                    metric,
-                )
-            )
-            for metric in METRICS
-        }
+    def of(chosen: list[tuple[str, dict, dict]]) -> dict:
+        return agreements([row[1] for row in chosen], [row[2] for row in chosen])
 
-    report = {"spacing_m": spacing_m, "stride_frames": stride, "runs": len(rows)} | agreements(rows)
-    report["sets"] = {p.stem: agreements([r for r in rows if r["set"] == p.stem]) for p in dev}
+    report = {"spacing_m": spacing_m, "stride_frames": stride, "runs": len(rows)} | of(rows)
+    report["sets"] = {p.stem: of([row for row in rows if row[0] == p.stem]) for p in dev}
     (work / "nodes_vs_particles.json").write_text(json.dumps(report, indent=1))
     for metric in METRICS:
         row = report[metric]
@@ -143,12 +131,15 @@ def evaluate(model_path: Path, dev: list[Path], history: int) -> dict:
     return out
 
 
-def agreements(mpm: list[dict], gns: list[dict]) -> dict:
-    rows = {}
-    for metric in METRICS:
-        found = agreement(np.array([m[metric] for m in mpm]), np.array([g[metric] for g in gns]), metric)
-        rows[metric] = {key: getattr(found, key) for key in ("r2", "r2_low", "r2_high", "nrmse", "relative_bias")}
-    return rows
+def agreements(reference: list[dict], other: list[dict]) -> dict:
+    """R², NRMSE and bias (rgns.surrogates.validation.agreement) of each metric of ``other``'s runs against
+    ``reference``'s."""
+    return {
+        metric: asdict(
+            agreement(np.array([r[metric] for r in reference]), np.array([o[metric] for o in other]), metric)
+        )
+        for metric in METRICS
+    }
 
 
 def train_in_stretches(
