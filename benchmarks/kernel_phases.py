@@ -28,8 +28,8 @@ PHASES = {  # phase: (the shipped line that starts it, the same line switched of
         "            for s in range(0):  # each array summed",
     ),
     "strain": (
-        "            for q in range(count):\n                lxx = 0.0",
-        "            for q in range(0):\n                lxx = 0.0",
+        "    for q in range(count):\n        lxx = 0.0",
+        "    for q in range(0):\n        lxx = 0.0",
     ),
     "stress": (
         "            for q in range(count):\n                p = p0 + q\n                dxx, dyy",
@@ -40,8 +40,8 @@ PHASES = {  # phase: (the shipped line that starts it, the same line switched of
         "            for s in range(0):\n                _force_scatter(",
     ),
     "g2p": (
-        "            for q in range(count):\n                p = p0 + q\n                sum_ax",
-        "            for q in range(0):\n                p = p0 + q\n                sum_ax",
+        "    for q in range(count):\n        p = p0 + q\n        sum_ax",
+        "    for q in range(0):\n        p = p0 + q\n        sum_ax",
     ),
 }
 

@@ -255,6 +255,50 @@ def _stress_update(sxx, syy, szz, txy, dxx, dyy, dxy, shear_modulus, lame_lambda
     return centre + half * cos2, centre - half * cos2, new_z, half * sin2
 
 
+@njit(cache=True, inline="always")
+def _strains(slots, count, nodes, gx, gy, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy):
+    """Each particle's strain increments from the nodal velocities (four sums, each over the slots in order);
+    ``slots`` a literal at each call, so that the sums over it are unrolled."""
+    for q in range(count):
+        lxx = 0.0
+        lyy = 0.0
+        lxy = 0.0
+        lyx = 0.0
+        for s in range(slots):
+            n = nodes[s, q]
+            lxx += node_vx[n] * gx[s, q]
+            lyy += node_vy[n] * gy[s, q]
+            lxy += node_vx[n] * gy[s, q]
+            lyx += node_vy[n] * gx[s, q]
+        strain_xx[q], strain_yy[q], strain_xy[q] = dt * lxx, dt * lyy, dt * (lxy + lyx)
+
+
+@njit(cache=True, inline="always")
+def _g2p(slots, p0, count, nodes, w, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy):
+    """FLIP velocities (blended with PIC), positions with the new nodal velocities; ``slots`` as :func:`_strains`."""
+    for q in range(count):
+        p = p0 + q
+        sum_ax = 0.0
+        sum_ay = 0.0
+        pic_x = 0.0
+        pic_y = 0.0
+        for s in range(slots):
+            n = nodes[s, q]
+            ws = w[s, q]
+            sum_ax += ws * node_ax[n]
+            sum_ay += ws * node_ay[n]
+            pic_x += ws * new_vx[n]
+            pic_y += ws * new_vy[n]
+        flip_x = vx[p] + dt * sum_ax
+        flip_y = vy[p] + dt * sum_ay
+        if pic_blend != 0.0:
+            flip_x = (1 - pic_blend) * flip_x + pic_blend * pic_x
+            flip_y = (1 - pic_blend) * flip_y + pic_blend * pic_y
+        vx[p], vy[p] = flip_x, flip_y
+        x[p] = x[p] + dt * pic_x
+        y[p] = y[p] + dt * pic_y
+
+
 @njit(cache=True)
 def advance_frame(
     x,
@@ -342,18 +386,10 @@ def advance_frame(
                     force_x[n] = 0.0
                     force_y[n] = 0.0
             # strain increments from the nodal velocities (four sums, each over the slots in order)
-            for q in range(count):
-                lxx = 0.0
-                lyy = 0.0
-                lxy = 0.0
-                lyx = 0.0
-                for s in range(slots):
-                    n = nodes[s, q]
-                    lxx += node_vx[n] * gx[s, q]
-                    lyy += node_vy[n] * gy[s, q]
-                    lxy += node_vx[n] * gy[s, q]
-                    lyx += node_vy[n] * gx[s, q]
-                strain_xx[q], strain_yy[q], strain_xy[q] = dt * lxx, dt * lyy, dt * (lxy + lyx)
+            if spline:
+                _strains(9, count, nodes, gx, gy, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy)
+            else:
+                _strains(4, count, nodes, gx, gy, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy)
             # the stress update and the new volume
             for q in range(count):
                 p = p0 + q
@@ -403,27 +439,10 @@ def advance_frame(
                     new_vx[n] = 0.0 if fixed_x[n] else node_vx[n] + dt * ax
                     new_vy[n] = 0.0 if fixed_y[n] else node_vy[n] + dt * ay
             # g2p: FLIP velocities (blended with PIC), positions with the new nodal velocities
-            for q in range(count):
-                p = p0 + q
-                sum_ax = 0.0
-                sum_ay = 0.0
-                pic_x = 0.0
-                pic_y = 0.0
-                for s in range(slots):
-                    n = nodes[s, q]
-                    ws = w[s, q]
-                    sum_ax += ws * node_ax[n]
-                    sum_ay += ws * node_ay[n]
-                    pic_x += ws * new_vx[n]
-                    pic_y += ws * new_vy[n]
-                flip_x = vx[p] + dt * sum_ax
-                flip_y = vy[p] + dt * sum_ay
-                if pic_blend != 0.0:
-                    flip_x = (1 - pic_blend) * flip_x + pic_blend * pic_x
-                    flip_y = (1 - pic_blend) * flip_y + pic_blend * pic_y
-                vx[p], vy[p] = flip_x, flip_y
-                x[p] = x[p] + dt * pic_x
-                y[p] = y[p] + dt * pic_y
+            if spline:
+                _g2p(9, p0, count, nodes, w, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
+            else:
+                _g2p(4, p0, count, nodes, w, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
 
 
 @njit(cache=True)
