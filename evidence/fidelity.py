@@ -143,21 +143,28 @@ def mesh_step() -> str:
     GPU's 0.25 m runs, and the chain's coverage on the real runs (mesh_levels.json, mesh_levels_gpu.json,
     chain_coverage.json)."""
     cpu, gpu = result("mesh_levels.json"), result("mesh_levels_gpu.json")
+    independent_record = result("mesh_levels_independent.json")
+    independent = independent_record["case1"]
     chain = result("chain_coverage.json", legacy=True)
     for name, record in (("mesh_levels.json", cpu), ("mesh_levels_gpu.json", gpu)):
         if "against" not in record["case1"]:
             raise DocumentError(f"benchmarks/results/{name}: no comparison with a default run (run it with --against)")
-    order = cpu["case1"]["fits"]["runout_m"]["order"]
+    order, own = independent["fits"]["runout_m"]["order"], cpu["case1"]["fits"]["runout_m"]["order"]
+    finest = independent["finest"]["fits"]["runout_m"]["finest_minus_predicted"]
     compared = {entry["quantity"]: entry for entry in cpu["case1"]["against"]["comparisons"]}
     step = compared["mesh step of the mean runout (converged − 0.5 m; headline: over the order's interval)"]
 
     coverage, distances = chain["coverage"], chain["distances"]
     mean_name = list(chain["allocation"])[0]
     return (
-        f"The step to the converged mesh uses the order measured on case 1's realizations at 1, 0.5 and 0.25 m: "
-        f"{order['value']:.2f} [{order['lower']:.2f}, {order['upper']:.2f}] for runout on "
-        f"{len(cpu['case1']['realizations'])} realizations, by which the 0.5 m mesh's mean runout is short by "
-        f"{ends(step['reference'])}; the default run's step, {ends(step['headline'])} "
+        f"The step to the converged mesh uses the runout's order measured on "
+        f"{len(independent['realizations'])} case-1 realizations of a seed of their own at 1, 0.5 and 0.25 m: "
+        f"{order['value']:.2f} [{order['lower']:.2f}, {order['upper']:.2f}]; at 0.125 m their mean runout sits "
+        f"{finest['value']:+.2f} m [{finest['lower']:+.2f}, {finest['upper']:+.2f}] from what the three coarser "
+        f"meshes predict for it (`benchmarks/results/mesh_levels_independent.md`, at {independent_record['commit']}). "
+        f"On the run's own {len(cpu['case1']['realizations'])} realizations the order is {own['value']:.2f} "
+        f"[{own['lower']:.2f}, {own['upper']:.2f}], and with the configured order their 0.5 m mean runout is short "
+        f"by {ends(step['reference'])}; the default run's step, {ends(step['headline'])} "
         f"({cpu['case1']['against']['headline']}), {'holds' if step['inside'] else 'DOES NOT hold'} it "
         f"(`benchmarks/results/mesh_levels.md`: `{cpu['command']}` at {cpu['commit']}). Its interval holds that "
         f"order's uncertainty, which is most of its width. Against a direct reference, the run's first "
