@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from evidence.formatting import minutes, power
-from evidence.sources import card, made_note, result
+from evidence.sources import RESULTS, card, made_note, result
 
 
 def gns_training() -> str:
@@ -119,21 +119,10 @@ def gns_shipped() -> str:
     )
 
 
-def gns_cpu() -> str:
-    """docs/gns-training.md: the lean GNS's learning curve on one CPU thread, rolled out from the first frames
-    (gns_cpu.json), and why it runs on the particles, not on 1 m nodes."""
-    record = result("gns_cpu.json")
-    model, training, rows = record["model"], record["training"], record["curve"]
+def curve_rows(rows: list[dict]) -> list[str]:
+    """A gns_cpu learning curve as table rows: per evaluation, the pooled and each test case's runout R² and bias."""
     sets = [name for name in rows[-1]["dev"] if name != "all"]
     lines = [
-        f"Latent {model['latent_size']}, {model['message_passing_steps']} message-passing steps, radius "
-        f"{model['radius_m']:g} m, history {model['history']}"
-        + (", where each particle started (height, depth)" if model["static_features"] else "")
-        + f"; {training['batch_graphs']} windows a step, noise {training['noise_std']:g} m, learning rate "
-        f"{training['learning_rate']:g} annealed over {training['decay_steps']:,} steps; one thread. Runout R² of "
-        "each test case's 16 development runs against the MPM's, rolled out from their first "
-        f"{model['history'] + 1} frames (95 % bootstrap interval), and R's relative bias:",
-        "",
         "| steps | wall | all 64: R² | " + " | ".join(f"{name}: R² | bias" for name in sets) + " |",
         "|---:|---:|---|" + "---|---:|" * len(sets),
     ]
@@ -145,6 +134,37 @@ def gns_cpu() -> str:
         pooled = row["dev"].get("all", {}).get("runout_m")
         overall = f"{pooled['r2']:.2f} [{pooled['r2_low']:.2f}, {pooled['r2_high']:.2f}]" if pooled else "—"
         lines.append(f"| {row['step']:,} | {minutes(row['wall_s'])} | {overall} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def gns_cpu() -> str:
+    """docs/gns-training.md: the lean GNS's learning curve on one CPU thread, rolled out from the first frames
+    (gns_cpu.json), a variant's beside it where one was run (gns_cpu_moving.json: moving particles weighted in the
+    loss), and why it runs on the particles, not on 1 m nodes."""
+    record = result("gns_cpu.json")
+    model, training = record["model"], record["training"]
+    lines = [
+        f"Latent {model['latent_size']}, {model['message_passing_steps']} message-passing steps, radius "
+        f"{model['radius_m']:g} m, history {model['history']}"
+        + (", where each particle started (height, depth)" if model["static_features"] else "")
+        + f"; {training['batch_graphs']} windows a step, noise {training['noise_std']:g} m, learning rate "
+        f"{training['learning_rate']:g} annealed over {training['decay_steps']:,} steps; one thread. Runout R² of "
+        "each test case's 16 development runs against the MPM's, rolled out from their first "
+        f"{model['history'] + 1} frames (95 % bootstrap interval), and R's relative bias (wall: the training's elapsed "
+        "time, evaluations included, and any pause while the machine measured something else):",
+        "",
+        *curve_rows(record["curve"]),
+    ]
+    if (RESULTS / "gns_cpu_moving.json").exists():
+        variant = result("gns_cpu_moving.json")
+        lines += [
+            "",
+            f"The same spec with each moving particle weighing 1 + {variant['training']['moving_weight']:g} in the "
+            f"one-step loss, trained from scratch beside it (`{variant['train_command']}`; "
+            f"`benchmarks/results/gns_cpu_moving.json` {made_note(variant)}):",
+            "",
+            *curve_rows(variant["curve"]),
+        ]
     coarse = record["coarser_nodes_vs_particles"]
     case3 = coarse["sets"]["case3"]["runout_m"]
     lines += [
