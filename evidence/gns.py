@@ -155,9 +155,10 @@ def gns_cpu() -> str:
         "",
         *curve_rows(record["curve"]),
     ]
+    variant_lines = []
     if (RESULTS / "gns_cpu_moving.json").exists():
         variant = result("gns_cpu_moving.json")
-        lines += [
+        variant_lines += [
             "",
             f"The same spec with each moving particle weighing 1 + {variant['training']['moving_weight']:g} in the "
             f"one-step loss, trained from scratch beside it (`{variant['train_command']}`; "
@@ -186,4 +187,4 @@ def gns_cpu() -> str:
         f"{rates['0.85']['twice']:.0%}, one of 0.8 in {rates['0.8']['twice']:.1%} ({rule['trials']:,} simulated sets "
         "of unbiased normal errors).",
     ]
-    return "\n".join(lines)
+    return "\n".join(lines + variant_lines)
