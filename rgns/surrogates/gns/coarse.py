@@ -9,8 +9,9 @@ thousands of particles. R, V and I measured on the nodes follow the particles' (
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from dataclasses import replace
+from itertools import chain
 from pathlib import Path
 
 import numpy as np
@@ -66,19 +67,24 @@ def coarse_trajectory(trajectory: Trajectory, spacing_m: float, stride: int) -> 
 
 
 def coarse_set(packed: str | Path, out_path: str | Path, spacing_m: float, stride: int) -> int:
-    """A packed set file's trajectories coarse-grained into a packed set of their own; returns how many."""
-    trajectories = list(read_packed(packed))
-    if not trajectories:
+    """A packed set file's trajectories coarse-grained into a packed set of their own, one at a time (a training
+    set is hundreds of megabytes); returns how many."""
+    trajectories = read_packed(packed)
+    first = next(trajectories, None)
+    if first is None:
         raise TrajectoryError(f"{packed}: holds no trajectories")
-    frames = {t.n_frames for t in trajectories}
-    if len(frames) > 1:
-        raise TrajectoryError(f"{packed}: trajectories of {sorted(frames)} frames; a set needs one frame layout")
-    pack_trajectories(_coarse_all(packed, trajectories, spacing_m, stride), out_path, trajectories[0].set_name)
-    return len(trajectories)
+    count = 0
 
+    def coarse() -> Iterator[tuple[str, Trajectory]]:
+        nonlocal count
+        for trajectory in chain([first], trajectories):
+            if trajectory.n_frames != first.n_frames:
+                raise TrajectoryError(
+                    f"{packed}: trajectories of {first.n_frames} and {trajectory.n_frames} frames; a set needs one "
+                    "frame layout"
+                )
+            count += 1
+            yield f"{packed} trajectory {trajectory.index:04d}", coarse_trajectory(trajectory, spacing_m, stride)
 
-def _coarse_all(
-    packed: str | Path, trajectories: Iterable[Trajectory], spacing_m: float, stride: int
-) -> Iterator[tuple[str, Trajectory]]:
-    for trajectory in trajectories:
-        yield f"{packed} trajectory {trajectory.index:04d}", coarse_trajectory(trajectory, spacing_m, stride)
+    pack_trajectories(coarse(), out_path, first.set_name)
+    return count
