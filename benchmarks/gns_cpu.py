@@ -42,8 +42,11 @@ from rgns.trajectories import read_packed
 METRICS = ("runout_m", "volume_m2", "influence_m")
 
 
-def spec(static: bool, radius_m: float, moving_weight: float = 0.0) -> tuple[ModelSettings, TrainSettings]:
-    """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings."""
+def spec(
+    static: bool, radius_m: float, moving_weight: float = 0.0, pushforward_steps: int = 0
+) -> tuple[ModelSettings, TrainSettings]:
+    """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings; with
+    ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target."""
     model = ModelSettings(
         latent_size=64,
         mlp_width=64,
@@ -61,6 +64,7 @@ def spec(static: bool, radius_m: float, moving_weight: float = 0.0) -> tuple[Mod
         decay_steps=30000,  # fixed: a longer run continues the same schedule
         noise_std=1e-3,
         moving_weight=moving_weight,
+        pushforward_steps=pushforward_steps,
         smoothing_frames=1.0,
         checkpoint_every=250,
         validate_every=1000,
@@ -143,9 +147,16 @@ def agreements(reference: list[dict], other: list[dict]) -> dict:
 
 
 def train_in_stretches(
-    work: Path, dev: list[Path], until: int, every: int, static: bool, radius_m: float, moving_weight: float
+    work: Path,
+    dev: list[Path],
+    until: int,
+    every: int,
+    static: bool,
+    radius_m: float,
+    moving_weight: float,
+    pushforward_steps: int,
 ) -> None:
-    model, training = spec(static, radius_m, moving_weight)
+    model, training = spec(static, radius_m, moving_weight, pushforward_steps)
     sets = work / "sets"
     curve = work / "curve.jsonl"
     done = {json.loads(line)["step"] for line in curve.read_text().splitlines()} if curve.exists() else set()
@@ -197,15 +208,17 @@ def report(
     static: bool,
     radius_m: float,
     moving_weight: float,
+    pushforward_steps: int,
     coarser: Path | None,
     dev: list[Path],
 ) -> None:
     """The curve as OUT.json (with the spec the training ran: give ``report`` its ``--static`` and ``--radius``),
     and ``coarser``'s nodes against the particles (a ``sets`` work folder of another spacing) beside the run's."""
     rows = [json.loads(line) for line in (work / "curve.jsonl").read_text().splitlines()]
-    model, training = spec(static, radius_m, moving_weight)
+    model, training = spec(static, radius_m, moving_weight, pushforward_steps)
     trained = f"python benchmarks/gns_cpu.py train --work {work}" + (" --static" if static else "")
     trained += f" --moving-weight {moving_weight:g}" if moving_weight else ""
+    trained += f" --pushforward {pushforward_steps}" if pushforward_steps else ""
     record = {
         "command": command,
         "train_command": f"{trained} --radius {radius_m:g} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
@@ -259,6 +272,9 @@ def main() -> None:
     parser.add_argument("--stride", type=int, default=4, help="MPM frames a GNS step spans")
     parser.add_argument("--radius", type=float, default=1.1, help="connectivity radius (m)")
     parser.add_argument("--moving-weight", type=float, default=0.0, help="extra loss weight of moving particles")
+    parser.add_argument(
+        "--pushforward", type=int, default=0, help="steps the model rolls a window on before its target"
+    )
     parser.add_argument("--static", action="store_true", help="give nodes where they started (static_features)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
@@ -266,10 +282,22 @@ def main() -> None:
     if args.action == "sets":
         make_sets(args.work, args.train, args.valid, args.dev, args.spacing, args.stride)
     elif args.action == "train":
-        train_in_stretches(args.work, args.dev, args.until, args.every, args.static, args.radius, args.moving_weight)
+        train_in_stretches(
+            args.work, args.dev, args.until, args.every, args.static, args.radius, args.moving_weight, args.pushforward
+        )
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
-        report(args.work, args.out, command, args.static, args.radius, args.moving_weight, args.coarser, args.dev)
+        report(
+            args.work,
+            args.out,
+            command,
+            args.static,
+            args.radius,
+            args.moving_weight,
+            args.pushforward,
+            args.coarser,
+            args.dev,
+        )
 
 
 if __name__ == "__main__":
