@@ -137,10 +137,23 @@ def curve_rows(rows: list[dict]) -> list[str]:
     return lines
 
 
+VARIANTS = ("gns_cpu_moving.json", "gns_cpu_push.json", "gns_cpu_radius.json")  # gns_cpu.json with one change each
+CHANGES = {  # a spec key: how the sentence names its value
+    "radius_m": lambda v: f"radius {v:g} m",
+    "moving_weight": lambda v: f"each moving particle weighing 1 + {v:g} in the one-step loss",
+    "pushforward_steps": lambda v: f"each window's input the model's own rollout over {v} steps (push-forward)",
+}
+
+
+def spec_changes(record: dict, variant: dict) -> str:
+    """How a variant's spec differs from the record's, in words (the keys of CHANGES that differ)."""
+    spec, changed = record["model"] | record["training"], variant["model"] | variant["training"]
+    return ", ".join(words(changed[key]) for key, words in CHANGES.items() if changed.get(key) != spec.get(key))
+
+
 def gns_cpu() -> str:
     """docs/gns-training.md: the lean GNS's learning curve on one CPU thread, rolled out from the first frames
-    (gns_cpu.json), a variant's beside it where one was run (gns_cpu_moving.json: moving particles weighted in the
-    loss), and why it runs on the particles, not on 1 m nodes."""
+    (gns_cpu.json), each variant's (VARIANTS) after it, and why it runs on the particles, not on 1 m nodes."""
     record = result("gns_cpu.json")
     model, training = record["model"], record["training"]
     lines = [
@@ -156,13 +169,14 @@ def gns_cpu() -> str:
         *curve_rows(record["curve"]),
     ]
     variant_lines = []
-    if (RESULTS / "gns_cpu_moving.json").exists():
-        variant = result("gns_cpu_moving.json")
+    for name in VARIANTS:
+        if not (RESULTS / name).exists():
+            continue
+        variant = result(name)
         variant_lines += [
             "",
-            f"The same spec with each moving particle weighing 1 + {variant['training']['moving_weight']:g} in the "
-            f"one-step loss, trained from scratch beside it (`{variant['train_command']}`; "
-            f"`benchmarks/results/gns_cpu_moving.json` {made_note(variant)}):",
+            f"The same spec with {spec_changes(record, variant)}, trained from scratch (`{variant['train_command']}`; "
+            f"`benchmarks/results/{name}` {made_note(variant)}):",
             "",
             *curve_rows(variant["curve"]),
         ]
