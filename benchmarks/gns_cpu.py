@@ -212,7 +212,7 @@ def report(
     coarser: Path | None,
     dev: list[Path],
 ) -> None:
-    """The curve as OUT.json (with the spec the training ran: give ``report`` its ``--static`` and ``--radius``),
+    """The curve as OUT.json (with the spec the training ran: give ``report`` the training's spec flags),
     and ``coarser``'s nodes against the particles (a ``sets`` work folder of another spacing) beside the run's."""
     rows = [json.loads(line) for line in (work / "curve.jsonl").read_text().splitlines()]
     model, training = spec(static, radius_m, moving_weight, pushforward_steps)

@@ -241,7 +241,7 @@ def cost_seconds(case: str, cells: list[float]) -> dict[float, float]:
     """Mean one-thread seconds per realization at each of ``cells`` in COST_RUNS (the compiled kernels' runs),
     ValueError naming the store where it lacks a level of ``case``."""
     runs = load_runs(COST_RUNS)
-    seconds = {h: [row["seconds"] for (c, level, _), row in runs.items() if c == case and level == h] for h in cells}
+    seconds = {h: [runs[case, h, i]["seconds"] for i in indices_at(runs, case, h)] for h in cells}
     missing = [h for h, level in seconds.items() if not level]
     if missing:
         raise ValueError(f"{COST_RUNS}: no {case} runs at {missing} m for the cost comparison")
@@ -640,7 +640,7 @@ def against_run(
     run = json.loads(run_json.read_text())
     converged = run["converged"]
     order = converged["order"]["runout_m"]
-    indices, values, seconds = saved(case, cells)
+    indices, values, _ = saved(case, cells)
     lines = [
         f"## {case}: the default run's headline against the direct reference",
         "",
