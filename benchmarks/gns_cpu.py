@@ -43,10 +43,15 @@ METRICS = ("runout_m", "volume_m2", "influence_m")
 
 
 def spec(
-    static: bool, radius_m: float, moving_weight: float = 0.0, pushforward_steps: int = 0
+    static: bool,
+    radius_m: float,
+    moving_weight: float = 0.0,
+    pushforward_steps: int = 0,
+    learning_rate: float = 1e-3,
 ) -> tuple[ModelSettings, TrainSettings]:
     """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings; with
-    ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target."""
+    ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target;
+    ``learning_rate`` is annealed to a hundredth of itself over 30,000 steps."""
     model = ModelSettings(
         latent_size=64,
         mlp_width=64,
@@ -58,8 +63,8 @@ def spec(
     )
     training = TrainSettings(
         batch_graphs=4,
-        learning_rate=1e-3,
-        learning_rate_min=1e-5,
+        learning_rate=learning_rate,
+        learning_rate_min=learning_rate / 100,
         decay_rate=0.01,
         decay_steps=30000,  # fixed: a longer run continues the same schedule
         noise_std=1e-3,
@@ -155,8 +160,9 @@ def train_in_stretches(
     radius_m: float,
     moving_weight: float,
     pushforward_steps: int,
+    learning_rate: float,
 ) -> None:
-    model, training = spec(static, radius_m, moving_weight, pushforward_steps)
+    model, training = spec(static, radius_m, moving_weight, pushforward_steps, learning_rate)
     sets = work / "sets"
     curve = work / "curve.jsonl"
     done = {json.loads(line)["step"] for line in curve.read_text().splitlines()} if curve.exists() else set()
@@ -209,16 +215,18 @@ def report(
     radius_m: float,
     moving_weight: float,
     pushforward_steps: int,
+    learning_rate: float,
     coarser: Path | None,
     dev: list[Path],
 ) -> None:
     """The curve as OUT.json (with the spec the training ran: give ``report`` the training's spec flags),
     and ``coarser``'s nodes against the particles (a ``sets`` work folder of another spacing) beside the run's."""
     rows = [json.loads(line) for line in (work / "curve.jsonl").read_text().splitlines()]
-    model, training = spec(static, radius_m, moving_weight, pushforward_steps)
+    model, training = spec(static, radius_m, moving_weight, pushforward_steps, learning_rate)
     trained = f"python benchmarks/gns_cpu.py train --work {work}" + (" --static" if static else "")
     trained += f" --moving-weight {moving_weight:g}" if moving_weight else ""
     trained += f" --pushforward {pushforward_steps}" if pushforward_steps else ""
+    trained += f" --learning-rate {learning_rate:g}" if learning_rate != 1e-3 else ""
     record = {
         "command": command,
         "train_command": f"{trained} --radius {radius_m:g} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
@@ -275,6 +283,7 @@ def main() -> None:
     parser.add_argument(
         "--pushforward", type=int, default=0, help="steps the model rolls a window on before its target"
     )
+    parser.add_argument("--learning-rate", type=float, default=1e-3, help="initial learning rate")
     parser.add_argument("--static", action="store_true", help="give nodes where they started (static_features)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
@@ -283,7 +292,15 @@ def main() -> None:
         make_sets(args.work, args.train, args.valid, args.dev, args.spacing, args.stride)
     elif args.action == "train":
         train_in_stretches(
-            args.work, args.dev, args.until, args.every, args.static, args.radius, args.moving_weight, args.pushforward
+            args.work,
+            args.dev,
+            args.until,
+            args.every,
+            args.static,
+            args.radius,
+            args.moving_weight,
+            args.pushforward,
+            args.learning_rate,
         )
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
@@ -295,6 +312,7 @@ def main() -> None:
             args.radius,
             args.moving_weight,
             args.pushforward,
+            args.learning_rate,
             args.coarser,
             args.dev,
         )
