@@ -48,10 +48,12 @@ def spec(
     moving_weight: float = 0.0,
     pushforward_steps: int = 0,
     learning_rate: float = 1e-3,
+    ema_decay: float = 0.0,
 ) -> tuple[ModelSettings, TrainSettings]:
     """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings; with
     ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target;
-    ``learning_rate`` is annealed to a hundredth of itself over 30,000 steps."""
+    ``learning_rate`` is annealed to a hundredth of itself over 30,000 steps; with ``ema_decay`` the model evaluated
+    is the moving average of the weights."""
     model = ModelSettings(
         latent_size=64,
         mlp_width=64,
@@ -70,6 +72,7 @@ def spec(
         noise_std=1e-3,
         moving_weight=moving_weight,
         pushforward_steps=pushforward_steps,
+        ema_decay=ema_decay,
         smoothing_frames=1.0,
         checkpoint_every=250,
         validate_every=1000,
@@ -161,8 +164,9 @@ def train_in_stretches(
     moving_weight: float,
     pushforward_steps: int,
     learning_rate: float,
+    ema_decay: float,
 ) -> None:
-    model, training = spec(static, radius_m, moving_weight, pushforward_steps, learning_rate)
+    model, training = spec(static, radius_m, moving_weight, pushforward_steps, learning_rate, ema_decay)
     sets = work / "sets"
     curve = work / "curve.jsonl"
     done = {json.loads(line)["step"] for line in curve.read_text().splitlines()} if curve.exists() else set()
@@ -216,23 +220,31 @@ def report(
     moving_weight: float,
     pushforward_steps: int,
     learning_rate: float,
+    ema_decay: float,
     coarser: Path | None,
     dev: list[Path],
+    train_config: str,
 ) -> None:
-    """The curve as OUT.json (with the spec the training ran: give ``report`` the training's spec flags),
-    and ``coarser``'s nodes against the particles (a ``sets`` work folder of another spacing) beside the run's."""
+    """The curve as OUT.json (with the spec the training ran: give ``report`` the training's spec flags, and the
+    config its training set was made by), and ``coarser``'s nodes against the particles (a ``sets`` work folder of
+    another spacing) beside the run's."""
     rows = [json.loads(line) for line in (work / "curve.jsonl").read_text().splitlines()]
-    model, training = spec(static, radius_m, moving_weight, pushforward_steps, learning_rate)
+    model, training = spec(static, radius_m, moving_weight, pushforward_steps, learning_rate, ema_decay)
     trained = f"python benchmarks/gns_cpu.py train --work {work}" + (" --static" if static else "")
     trained += f" --moving-weight {moving_weight:g}" if moving_weight else ""
     trained += f" --pushforward {pushforward_steps}" if pushforward_steps else ""
     trained += f" --learning-rate {learning_rate:g}" if learning_rate != 1e-3 else ""
+    trained += f" --ema-decay {ema_decay:g}" if ema_decay else ""
     record = {
         "command": command,
         "train_command": f"{trained} --radius {radius_m:g} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
         "commit": subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip(),
         "model": asdict(model),
         "training": asdict(training),
+        "train_data": {
+            "config": train_config,
+            "runs": WindowSampler(str(work / "sets" / "train.h5"), model.history).n_trajectories,
+        },
         "nodes_vs_particles": json.loads((work / "nodes_vs_particles.json").read_text()),
         "coarser_nodes_vs_particles": json.loads((coarser / "nodes_vs_particles.json").read_text())
         if coarser
@@ -284,6 +296,10 @@ def main() -> None:
         "--pushforward", type=int, default=0, help="steps the model rolls a window on before its target"
     )
     parser.add_argument("--learning-rate", type=float, default=1e-3, help="initial learning rate")
+    parser.add_argument("--ema-decay", type=float, default=0.0, help="evaluate the weights' moving average")
+    parser.add_argument(
+        "--train-config", default="config/pretrain.yaml", help="report: the config that made the training set"
+    )
     parser.add_argument("--static", action="store_true", help="give nodes where they started (static_features)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
@@ -301,6 +317,7 @@ def main() -> None:
             args.moving_weight,
             args.pushforward,
             args.learning_rate,
+            args.ema_decay,
         )
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
@@ -313,8 +330,10 @@ def main() -> None:
             args.moving_weight,
             args.pushforward,
             args.learning_rate,
+            args.ema_decay,
             args.coarser,
             args.dev,
+            args.train_config,
         )
 
 

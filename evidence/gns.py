@@ -137,17 +137,28 @@ def curve_rows(rows: list[dict]) -> list[str]:
     return lines
 
 
-VARIANTS = ("gns_cpu_moving.json", "gns_cpu_push.json", "gns_cpu_radius.json")  # gns_cpu.json with one change each
+VARIANTS = (  # gns_cpu.json with one change each, or a change and the data
+    "gns_cpu_moving.json",
+    "gns_cpu_push.json",
+    "gns_cpu_radius.json",
+    "gns_cpu_data.json",
+    "gns_cpu_data_lr.json",
+)
+PRETRAIN = {"config": "config/pretrain.yaml", "runs": 168}  # the training data of a record that does not name its own
 CHANGES = {  # a spec key: how the sentence names its value
     "radius_m": lambda v: f"radius {v:g} m",
     "moving_weight": lambda v: f"each moving particle weighing 1 + {v:g} in the one-step loss",
     "pushforward_steps": lambda v: f"each window's input the model's own rollout over {v} steps (push-forward)",
+    "learning_rate": lambda v: f"learning rate {v:g}",
+    "ema_decay": lambda v: f"the weights' moving average (decay {v:g} a step) evaluated",
+    "train_data": lambda v: f"{v['runs']} training runs (`{v['config']}`)",
 }
 
 
 def spec_changes(record: dict, variant: dict) -> str:
     """How a variant's spec differs from the record's, in words (the keys of CHANGES that differ)."""
-    spec, changed = record["model"] | record["training"], variant["model"] | variant["training"]
+    spec = record["model"] | record["training"] | {"train_data": record.get("train_data", PRETRAIN)}
+    changed = variant["model"] | variant["training"] | {"train_data": variant.get("train_data", PRETRAIN)}
     return ", ".join(words(changed[key]) for key, words in CHANGES.items() if changed.get(key) != spec.get(key))
 
 

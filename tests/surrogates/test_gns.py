@@ -20,7 +20,14 @@ from rgns.surrogates.gns.data import WindowSampler
 from rgns.surrogates.gns.graph import brute_force_graph, radius_graph
 from rgns.surrogates.gns.rollout import RolloutSettings, rollout
 from rgns.surrogates.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, Normalization, OneStepLoss
-from rgns.surrogates.gns.train import TrainSettings, learning_rate, load_simulator, pushforward, train
+from rgns.surrogates.gns.train import (
+    TrainSettings,
+    learning_rate,
+    load_simulator,
+    moving_average,
+    pushforward,
+    train,
+)
 from rgns.trajectories import SOIL, Trajectory, pack, write_trajectory
 
 NORMALIZATION = Normalization([0.0, -0.01], [0.02, 0.03], [0.0, -0.001], [0.002, 0.003], 0.6, 0.1)
@@ -354,6 +361,49 @@ def test_a_killed_training_resumes_to_identical_weights_and_on_regenerated_data_
 
     assert run(other, "moved", 30)["resumed_from"] == 0
     assert len(list((tmp_path / "moved" / "checkpoints").glob("stale-*.pt"))) == 1
+
+
+def test_the_moving_average_warms_up_and_a_resumed_training_continues_both_weights(tiny_dataset, tmp_path):
+    """The average's update n moves it (1 − min(decay, (1 + n) / (10 + n))) of the way to the weights. With
+    ema_decay, the checkpoint's model (what load_simulator and the validation read) is the average and differs from
+    the weights the optimiser goes on from; ten steps, stopped and resumed to twenty, give both of twenty in one go."""
+    averaged, weights = [torch.zeros(3)], [torch.ones(3)]
+    update, expected = moving_average(0.5), 0.0
+    for count in range(1, 8):
+        update(averaged, weights, count)
+        rate = min(0.5, (1 + count) / (10 + count))
+        expected += (1 - rate) * (1 - expected)
+        assert torch.allclose(averaged[0], torch.full((3,), expected))
+    assert expected > 0.99  # the warm-up over, the decay rules
+
+    quick = TrainSettings(
+        batch_graphs=1,
+        decay_steps=1000,
+        log_every=10,
+        validate_every=10_000,
+        checkpoint_every=10,
+        selection_trajectories=1,
+        ema_decay=0.9,
+    )
+
+    def run(folder: str, steps: int) -> dict:
+        return train(
+            SMALL, replace(quick, steps=steps), tiny_dataset["train"], tiny_dataset["valid"], tmp_path / folder
+        )
+
+    def saved(folder: str) -> dict:
+        return torch.load(tmp_path / folder / "checkpoints" / "latest.pt", weights_only=False)
+
+    torch.set_num_threads(1)
+    run("whole", 20)
+    run("stopped", 10)
+    assert run("stopped", 20)["resumed_from"] == 10
+    whole, resumed = saved("whole"), saved("stopped")
+    for part in ("model", "training_weights"):
+        assert all(torch.equal(whole[part][key], resumed[part][key]) for key in whole[part])
+    assert not all(torch.equal(whole["model"][key], whole["training_weights"][key]) for key in whole["model"])
+    loaded = load_simulator(tmp_path / "whole" / "checkpoints" / "latest.pt").state_dict()
+    assert all(torch.equal(loaded[key], whole["model"][key]) for key in loaded)
 
 
 def test_batched_rollout_matches_one_realization_at_a_time_and_flags_divergence(tiny_dataset):

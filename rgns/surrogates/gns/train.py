@@ -1,12 +1,15 @@
 """Training: noisy one-step loss, Adam with exponential decay to a floor, validation,
-checkpoints every N steps, resume after a restart, learning curve, optional DDP and pushforward.
+checkpoints every N steps, resume after a restart, learning curve, optional DDP, pushforward and a moving
+average of the weights.
 
 The recipe that makes a GNS learn from MPM runs (docs/gns-training.md): targets from trajectories
 smoothed in time, padded early-stop frames never drawn, the training noise folded into the
 normalisation, normalised targets clipped, the learning rate annealed over the budget. Every
 validation scores the one-step loss against the mean predictor's on the same fixed windows, and
 full rollouts of held-out trajectories by their runout R, volume V and influence I: the model
-kept (``gns.pt``) is the checkpoint with the best rollout score, not the last iterate.
+kept (``gns.pt``) is the checkpoint with the best rollout score, not the last iterate. With ``ema_decay`` the
+model validated, checkpointed and kept is the exponential moving average of the weights (Polyak averaging): the
+iterates swing from one checkpoint to the next, their average less; the optimiser goes on from the raw weights.
 
 A restarted job finds ``checkpoints/latest.pt`` and continues from its step with the same
 optimizer state, learning-rate position and random streams (saved with it), and with the checkpoint's
@@ -32,6 +35,7 @@ import numpy as np
 import torch
 import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
+from torch.optim.swa_utils import AveragedModel
 
 from rgns.atomic import atomic_path
 from rgns.engines.metrics import runout_metrics
@@ -67,6 +71,7 @@ class TrainSettings:
     target_clip: float = 25.0
     pushforward_steps: int = 0
     moving_weight: float = 0.0  # extra weight of a particle that moves over its window (OneStepLoss)
+    ema_decay: float = 0.0  # > 0: the model used is the moving average of the weights at this decay a step
     checkpoint_every: int = 200
     validate_every: int = 200
     validation_windows: int = 128
@@ -120,6 +125,19 @@ def pushforward(
                 [positions[:, 1:], simulator.next_positions(graph.moved_to(positions))[:, None]], dim=1
             )
     return graph.moved_to(positions), targets[:, -1]
+
+
+def moving_average(decay: float):
+    """AveragedModel's update for an exponential moving average at ``decay`` a step, warming up as
+    min(decay, (1 + n) / (10 + n)) after n updates, so that the first steps' weights do not linger in it."""
+
+    @torch.no_grad()
+    def update(averaged: list[torch.Tensor], current: list[torch.Tensor], count: torch.Tensor | int) -> None:
+        rate = min(decay, (1.0 + float(count)) / (10.0 + float(count)))
+        for mine, theirs in zip(averaged, current):
+            mine.lerp_(theirs, 1.0 - rate)
+
+    return update
 
 
 def load_simulator(path: str | Path, device: str = "cpu") -> LearnedSimulator:
@@ -333,11 +351,16 @@ def train(
     objective = OneStepLoss(simulator, settings.target_clip, settings.moving_weight)
     step_module = DistributedDataParallel(objective) if distributed else objective
     optimizer = torch.optim.Adam(simulator.parameters(), lr=settings.learning_rate)
+    averaged = AveragedModel(simulator, multi_avg_fn=moving_average(settings.ema_decay)) if settings.ema_decay else None
+    used = averaged.module if averaged is not None else simulator  # what is validated, saved and kept
     start, history, elapsed, best = 0, [], 0.0, None
     rng = np.random.default_rng([settings.seed, rank])
     noise_generator = torch.Generator().manual_seed(settings.seed * 1000 + rank)
     if state is not None:
-        simulator.load_state_dict(state["model"])
+        simulator.load_state_dict(state.get("training_weights", state["model"]))
+        if averaged is not None:
+            averaged.module.load_state_dict(state["model"])
+            averaged.n_averaged.fill_(state["step"])
         optimizer.load_state_dict(state["optimizer"])
         start, history, elapsed, best = state["step"], state["history"], state["elapsed_s"], state.get("best")
         streams = state["streams"][rank] if rank < len(state["streams"]) else state["streams"][0]
@@ -372,6 +395,8 @@ def train(
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
+        if averaged is not None:
+            averaged.update_parameters(simulator)
         running.append(loss.item())
         done = step + 1
         if done % settings.log_every == 0 or done == settings.steps:
@@ -383,11 +408,11 @@ def train(
             }
             running = []
             if rank == 0 and (done % settings.validate_every == 0 or done == settings.steps):
-                row |= validate(simulator, valid_windows, batches, settings, device)
+                row |= validate(used, valid_windows, batches, settings, device)
                 score = row.get("valid_rollout_score", row["valid_one_step_loss"])
                 if best is None or score < best["score"]:
                     best = {"step": done, "score": score}
-                    _save(best_path, _model_state(simulator, settings, done, history + [row]))
+                    _save(best_path, _model_state(used, settings, done, history + [row]))
             history.append(row)
             if rank == 0:
                 log.info(
@@ -405,7 +430,8 @@ def train(
                 _save(
                     latest,
                     {
-                        "model": simulator.state_dict(),
+                        "model": used.state_dict(),
+                        "training_weights": simulator.state_dict(),
                         "optimizer": optimizer.state_dict(),
                         "step": done,
                         "history": history,
@@ -429,7 +455,7 @@ def train(
             kept["history"] = history
             _save(final, kept)
         else:
-            _save(final, _model_state(simulator, settings, settings.steps, history))
+            _save(final, _model_state(used, settings, settings.steps, history))
         write_history(history, out_dir / "history.csv")
     return summary
 
