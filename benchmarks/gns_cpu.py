@@ -154,19 +154,24 @@ def agreements(reference: list[dict], other: list[dict]) -> dict:
     }
 
 
+def spec_of(args: argparse.Namespace) -> tuple[ModelSettings, TrainSettings]:
+    """The spec the command line's flags ask for."""
+    return spec(args.static, args.radius, args.moving_weight, args.pushforward, args.learning_rate, args.ema_decay)
+
+
+def spec_flags(args: argparse.Namespace) -> str:
+    """The flags of that spec, as ``train`` takes them (the defaults left out, the radius always named)."""
+    flags = " --static" if args.static else ""
+    flags += f" --moving-weight {args.moving_weight:g}" if args.moving_weight else ""
+    flags += f" --pushforward {args.pushforward}" if args.pushforward else ""
+    flags += f" --learning-rate {args.learning_rate:g}" if args.learning_rate != 1e-3 else ""
+    flags += f" --ema-decay {args.ema_decay:g}" if args.ema_decay else ""
+    return flags + f" --radius {args.radius:g}"
+
+
 def train_in_stretches(
-    work: Path,
-    dev: list[Path],
-    until: int,
-    every: int,
-    static: bool,
-    radius_m: float,
-    moving_weight: float,
-    pushforward_steps: int,
-    learning_rate: float,
-    ema_decay: float,
+    work: Path, dev: list[Path], until: int, every: int, model: ModelSettings, training: TrainSettings
 ) -> None:
-    model, training = spec(static, radius_m, moving_weight, pushforward_steps, learning_rate, ema_decay)
     sets = work / "sets"
     curve = work / "curve.jsonl"
     done = {json.loads(line)["step"] for line in curve.read_text().splitlines()} if curve.exists() else set()
@@ -175,7 +180,7 @@ def train_in_stretches(
         summary = train(model, training, str(sets / "train.h5"), str(sets / "valid.h5"), work / "model")
         if target in done:
             continue
-        row = {"step": target, "wall_s": summary["wall_s"], "static": static}
+        row = {"step": target, "wall_s": summary["wall_s"], "static": model.static_features}
         row["dev"] = evaluate(work / "model" / "checkpoints" / "latest.pt", [sets / p.name for p in dev], model.history)
         with curve.open("a") as handle:
             handle.write(json.dumps(row) + "\n")
@@ -215,12 +220,7 @@ def report(
     work: Path,
     out: Path,
     command: str,
-    static: bool,
-    radius_m: float,
-    moving_weight: float,
-    pushforward_steps: int,
-    learning_rate: float,
-    ema_decay: float,
+    args: argparse.Namespace,
     coarser: Path | None,
     dev: list[Path],
     train_config: str,
@@ -229,15 +229,11 @@ def report(
     config its training set was made by), and ``coarser``'s nodes against the particles (a ``sets`` work folder of
     another spacing) beside the run's."""
     rows = [json.loads(line) for line in (work / "curve.jsonl").read_text().splitlines()]
-    model, training = spec(static, radius_m, moving_weight, pushforward_steps, learning_rate, ema_decay)
-    trained = f"python benchmarks/gns_cpu.py train --work {work}" + (" --static" if static else "")
-    trained += f" --moving-weight {moving_weight:g}" if moving_weight else ""
-    trained += f" --pushforward {pushforward_steps}" if pushforward_steps else ""
-    trained += f" --learning-rate {learning_rate:g}" if learning_rate != 1e-3 else ""
-    trained += f" --ema-decay {ema_decay:g}" if ema_decay else ""
+    model, training = spec_of(args)
+    trained = f"python benchmarks/gns_cpu.py train --work {work}{spec_flags(args)}"
     record = {
         "command": command,
-        "train_command": f"{trained} --radius {radius_m:g} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
+        "train_command": f"{trained} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
         "commit": subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip(),
         "model": asdict(model),
         "training": asdict(training),
@@ -307,34 +303,10 @@ def main() -> None:
     if args.action == "sets":
         make_sets(args.work, args.train, args.valid, args.dev, args.spacing, args.stride)
     elif args.action == "train":
-        train_in_stretches(
-            args.work,
-            args.dev,
-            args.until,
-            args.every,
-            args.static,
-            args.radius,
-            args.moving_weight,
-            args.pushforward,
-            args.learning_rate,
-            args.ema_decay,
-        )
+        train_in_stretches(args.work, args.dev, args.until, args.every, *spec_of(args))
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
-        report(
-            args.work,
-            args.out,
-            command,
-            args.static,
-            args.radius,
-            args.moving_weight,
-            args.pushforward,
-            args.learning_rate,
-            args.ema_decay,
-            args.coarser,
-            args.dev,
-            args.train_config,
-        )
+        report(args.work, args.out, command, args, args.coarser, args.dev, args.train_config)
 
 
 if __name__ == "__main__":
