@@ -144,7 +144,10 @@ VARIANTS = (  # gns_cpu.json with one change each, or a change and the data
     "gns_cpu_data.json",
     "gns_cpu_data_lr.json",
 )
-PRETRAIN = {"config": "config/pretrain.yaml", "runs": 168}  # the training data of a record that does not name its own
+UNRECORDED = {  # what a record made before a key existed ran with
+    "ema_decay": 0.0,
+    "train_data": {"config": "config/pretrain.yaml", "runs": 168},
+}
 CHANGES = {  # a spec key: how the sentence names its value
     "radius_m": lambda v: f"radius {v:g} m",
     "moving_weight": lambda v: f"each moving particle weighing 1 + {v:g} in the one-step loss",
@@ -157,8 +160,10 @@ CHANGES = {  # a spec key: how the sentence names its value
 
 def spec_changes(record: dict, variant: dict) -> str:
     """How a variant's spec differs from the record's, in words (the keys of CHANGES that differ)."""
-    spec = record["model"] | record["training"] | {"train_data": record.get("train_data", PRETRAIN)}
-    changed = variant["model"] | variant["training"] | {"train_data": variant.get("train_data", PRETRAIN)}
+    spec, changed = (
+        UNRECORDED | one["model"] | one["training"] | {key: one[key] for key in ("train_data",) if key in one}
+        for one in (record, variant)
+    )
     return ", ".join(words(changed[key]) for key, words in CHANGES.items() if changed.get(key) != spec.get(key))
 
 
