@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import statistics
+
 from evidence.formatting import minutes, power
 from evidence.sources import RESULTS, card, made_note, result
 
@@ -143,7 +145,9 @@ VARIANTS = (  # gns_cpu.json with one change each, or a change and the data
     "gns_cpu_radius.json",
     "gns_cpu_data.json",
     "gns_cpu_data_lr.json",
+    "gns_cpu_data_ema.json",
 )
+RANKED = "gns_cpu_data.json"  # the variant whose ranking and calibration the page shows
 UNRECORDED = {  # what a record made before a key existed ran with
     "ema_decay": 0.0,
     "train_data": {"config": "config/pretrain.yaml", "runs": 168},
@@ -156,6 +160,27 @@ CHANGES = {  # a spec key: how the sentence names its value
     "ema_decay": lambda v: f"the weights' moving average (decay {v:g} a step) evaluated",
     "train_data": lambda v: f"{v['runs']} training runs (`{v['config']}`)",
 }
+
+
+def ranking_rows(rows: list[dict]) -> list[str]:
+    """A gns_cpu learning curve's ranking against its calibration, as table rows: per evaluation and test case, the
+    correlation of the GNS's runouts with the MPM's and the ratio of their spreads (1 and 1 with no bias: R² 1)."""
+    sets = [name for name in rows[-1]["dev"] if name != "all"]
+    lines = [
+        "| steps | " + " | ".join(f"{name}: r | spread ratio" for name in sets) + " |",
+        "|---:|" + "---:|---:|" * len(sets),
+    ]
+    for row in rows:
+        cells = []
+        for name in sets:
+            runs = row["dev"][name]["runs"]
+            mpm, gns = [run[0] for run in runs["mpm"]], [run[0] for run in runs["gns"]]
+            cells += [
+                f"{statistics.correlation(mpm, gns):.2f}",
+                f"{statistics.pstdev(gns) / statistics.pstdev(mpm):.2f}",
+            ]
+        lines.append(f"| {row['step']:,} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def spec_changes(record: dict, variant: dict) -> str:
@@ -217,4 +242,13 @@ def gns_cpu() -> str:
         f"{rates['0.85']['twice']:.0%}, one of 0.8 in {rates['0.8']['twice']:.1%} ({rule['trials']:,} simulated sets "
         "of unbiased normal errors).",
     ]
+    if (RESULTS / RANKED).exists():
+        variant_lines += [
+            "",
+            f"What the runout R² of `{RANKED}` is made of: per test case, the correlation r of the GNS's 16 runouts with "
+            "the MPM's (how well it ranks the realizations) and the ratio of their spreads (how far its runouts swing "
+            "with the soil against the MPM's); R² is near 1 only where both are near 1 and the bias is small:",
+            "",
+            *ranking_rows(result(RANKED)["curve"]),
+        ]
     return "\n".join(lines + variant_lines)
