@@ -13,7 +13,7 @@ further past 1 m on a finer mesh: the threshold, not the failure, moves. Where I
 failure itself reaches further back (a retrogressive slide the finer mesh resolves). The realizations whose I
 changes most between the two finest meshes are drawn: each point at its initial position, coloured by how far it
 moved, with the crest and the rear-most point moved 1 m marked. Writes
-``benchmarks/results/influence_mechanism.{md,json,png}``.
+``benchmarks/results/influence_mechanism.{md,json,png}`` (``influence_mechanism_<case>.*`` for another ``--case``).
 """
 
 from __future__ import annotations
@@ -144,8 +144,10 @@ def main() -> None:
     fits = {f"{t:g}": mean_intervals(values[k]) for k, t in enumerate(THRESHOLDS_M)}
     jump = values[THRESHOLDS_M.index(1.0), -1] - values[THRESHOLDS_M.index(1.0), -2]
     picked = [indices[k] for k in np.argsort(-np.abs(jump))[: args.pictures]]
-    draw(args.ends, args.case, args.cells, picked, dict(zip(indices, crests)), OUT / "influence_mechanism.png")
+    name = "influence_mechanism" + ("" if args.case == "case1" else f"_{args.case}")
+    draw(args.ends, args.case, args.cells, picked, dict(zip(indices, crests)), OUT / f"{name}.png")
     command = f"python benchmarks/influence_mechanism.py --ends <ends> --runs {args.runs.name}"
+    command += "" if args.case == "case1" else f" --case {args.case}"
     sizes = " / ".join(f"{h:g}" for h in args.cells)
 
     def cell(entry: list[float]) -> str:
@@ -187,8 +189,8 @@ def main() -> None:
                 f"({dx:+.2f}, {dy:+.2f}){' T' if st['setter_top_row'] else ''}"
             )
         lines.append(f"| {index} | " + " | ".join(cells) + " |")
-    lines += ["", f"Drawn (`influence_mechanism.png`): realizations {', '.join(map(str, picked))}.", ""]
-    (OUT / "influence_mechanism.md").write_text("\n".join(lines))
+    lines += ["", f"Drawn (`{name}.png`): realizations {', '.join(map(str, picked))}.", ""]
+    (OUT / f"{name}.md").write_text("\n".join(lines))
     record = {
         "command": command,
         "commit": commit(),
@@ -202,7 +204,7 @@ def main() -> None:
         "fits": fits,
         "pictured": picked,
     }
-    (OUT / "influence_mechanism.json").write_text(json.dumps(record, indent=1) + "\n")
+    (OUT / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
     print("\n".join(lines))
 
 

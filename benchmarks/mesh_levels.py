@@ -124,6 +124,23 @@ def seeds() -> list[int]:
     return sorted({int(row.get("seed", default)) for row in load_runs(RUNS).values()})
 
 
+def realizations_of(cases: list[str]) -> dict[str, int]:
+    """How many realizations the store holds of each case at its finest level."""
+    runs = load_runs(RUNS)
+    return {case: len(indices_at(runs, case, min(h for c, h, _ in runs if c == case))) for case in cases}
+
+
+TEST_CASES = ("case1", "case2", "case3", "case4")
+
+
+def add_held_out_family(config: dict, name: str) -> None:
+    """config/pretrain_general.yaml's family ``name`` (one of its held-out slopes, which no model trained on) as a
+    case of that name, under case 1's field statistics."""
+    general = load_config(REPO / "config" / "pretrain_general.yaml")
+    config["geometry"]["families"][name] = general["geometry"]["families"][name]
+    config["sets"][name] = [dict(config["sets"]["case1"][0], family=name)]
+
+
 def report_name() -> str:
     """The report's name: the runs' store's, less its ``_runs.jsonl`` (mesh_levels, mesh_levels_gpu)."""
     return RUNS.name.removesuffix(".jsonl").removesuffix("_runs")
@@ -433,9 +450,13 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
         "`--realizations` to extend), then `python benchmarks/mesh_levels.py --against "
         "<run>/results/report/case1/multifidelity.json`"
         if RUNS.resolve() == CPU_RUNS.resolve()
-        else f"`python benchmarks/mesh_levels.py --run --no-report --cases {' '.join(cases)} --cells 1 0.5 0.25 0.125 "
-        f"--seed {', '.join(map(str, seeds()))} --realizations 16 --runs {RUNS.relative_to(REPO)} --keep-ends <ends>` "
-        f"(two processes, `--first 0 --realizations 8` and `--first 8`), then `python benchmarks/mesh_levels.py "
+        else "; ".join(
+            f"`python benchmarks/mesh_levels.py --run --no-report --cases {case} --cells 1 0.5 0.25 0.125 "
+            f"--seed {', '.join(map(str, seeds()))} --realizations {count} --runs {RUNS.relative_to(REPO)} "
+            f"--keep-ends <ends>" + (f" --held-out-family {case}`" if case not in TEST_CASES else "`")
+            for case, count in realizations_of(cases).items()
+        )
+        + f" (each in two processes that split the realizations with `--first`), then `python benchmarks/mesh_levels.py "
         f"--cases {' '.join(cases)} --runs {RUNS.relative_to(REPO)}`"
     )
     times = (
@@ -778,6 +799,10 @@ def main() -> None:
     parser.add_argument(
         "--seed", type=int, help="draw the realizations from this top-level seed (default: the config's)"
     )
+    parser.add_argument(
+        "--held-out-family",
+        help="add config/pretrain_general.yaml's held-out family of this name as a case (case 1's field) to run",
+    )
     parser.add_argument("--keep-ends", type=Path, help="a folder to keep each run's first and last positions in")
     parser.add_argument(
         "--resolved-config",
@@ -798,6 +823,8 @@ def main() -> None:
         config["mpm"]["embedded"]["device"] = args.device
         if args.seed is not None:
             config["seed"] = args.seed
+        if args.held_out_family:
+            add_held_out_family(config, args.held_out_family)
         run(config, args.cases, args.cells, args.realizations, args.first, args.batch, args.keep_ends)
     if not args.no_report:
         report(args.cases, args.cells, args.against)

@@ -6,7 +6,7 @@ import statistics
 from typing import Any
 
 from evidence.formatting import ends, half, interval, minutes, r2
-from evidence.sources import result
+from evidence.sources import RESULTS, result
 
 # issue 42's measurement of the default before its route changed (256 realizations gated to the MPM, 16 pairs)
 BEFORE_SECONDS = 23 * 60 + 57
@@ -305,4 +305,29 @@ def influence_growth() -> str:
         f"{means(at_2)} m, observed order of the three finest {order[0]:.2f} [{order[1]:.2f}, {order[2]:.2f}] "
         "(`benchmarks/results/influence_mechanism.md`). So I, as defined, has no converged value under refinement: "
         "the page reports it at the 0.5 m mesh and does not extrapolate it; read it as that mesh's."
+        + other_cases_influence()
     )
+
+
+OTHER_INFLUENCE = {  # influence_mechanism.py --case runs beside case 1's: the case and how the page names it
+    "case3": "case 3's column",
+    "ood_bench": "a benched slope no model trained on (ood_bench)",
+}
+
+
+def other_cases_influence() -> str:
+    """The influence distance's means per mesh and last step on the other cases of the independent mesh study."""
+    parts = []
+    for case, named in OTHER_INFLUENCE.items():
+        path = f"influence_mechanism_{case}.json"
+        if not (RESULTS / path).exists():
+            continue
+        record = result(path)
+        fit = record["fits"]["1"]
+        step = fit["last_step"]
+        parts.append(
+            f"on {named}, {len(record['realizations'])} realizations, "
+            + " / ".join(f"{mean[0]:.2f}" for mean in fit["means"])
+            + f" m, last step {step[0]:+.2f} m [{step[1]:+.2f}, {step[2]:+.2f}] (`benchmarks/results/{path[:-5]}.md`)"
+        )
+    return (" The same means at the same meshes " + "; ".join(parts) + ".") if parts else ""
