@@ -315,6 +315,14 @@ OTHER_INFLUENCE = {  # influence_mechanism.py --case runs beside case 1's: the c
 }
 
 
+def threshold_fit(record: dict, threshold: str) -> str:
+    """An influence_mechanism record's mean I per mesh at ``threshold`` (m) and its last step with its interval."""
+    fit = record["fits"][threshold]
+    step = fit["last_step"]
+    means = " / ".join(f"{mean[0]:.2f}" for mean in fit["means"])
+    return f"{means} m, last step {step[0]:+.2f} m [{step[1]:+.2f}, {step[2]:+.2f}]"
+
+
 def other_cases_influence() -> str:
     """The influence distance's means per mesh and last step on the other cases of the independent mesh study."""
     parts = []
@@ -323,11 +331,8 @@ def other_cases_influence() -> str:
         if not (RESULTS / path).exists():
             continue
         record = result(path)
-        fit = record["fits"]["1"]
-        step = fit["last_step"]
         parts.append(
-            f"on {named}, {len(record['realizations'])} realizations, "
-            + " / ".join(f"{mean[0]:.2f}" for mean in fit["means"])
-            + f" m, last step {step[0]:+.2f} m [{step[1]:+.2f}, {step[2]:+.2f}] (`benchmarks/results/{path[:-5]}.md`)"
+            f"on {named}, {len(record['realizations'])} realizations: {threshold_fit(record, '1')}; the rear-most "
+            f"point moved 2 m {threshold_fit(record, '2')} (`benchmarks/results/{path[:-5]}.md`)"
         )
-    return (" The same means at the same meshes " + "; ".join(parts) + ".") if parts else ""
+    return (" The same at the same meshes " + "; ".join(parts) + ".") if parts else ""
