@@ -216,18 +216,11 @@ def rule_power(dev: list[Path], trials: int = 20000) -> dict:
     }
 
 
-def report(
-    work: Path,
-    out: Path,
-    command: str,
-    args: argparse.Namespace,
-    coarser: Path | None,
-    dev: list[Path],
-    train_config: str,
-) -> None:
-    """The curve as OUT.json (with the spec the training ran: give ``report`` the training's spec flags, and the
-    config its training set was made by), and ``coarser``'s nodes against the particles (a ``sets`` work folder of
-    another spacing) beside the run's."""
+def report(args: argparse.Namespace, command: str) -> None:
+    """The curve of ``--work`` as ``--out``.json (with the spec the training ran: give ``report`` the training's spec
+    flags, and ``--train-config``, the config its training set was made by), and ``--coarser``'s nodes against the
+    particles (a ``sets`` work folder of another spacing) beside the run's."""
+    work, out, coarser, dev = args.work, args.out, args.coarser, args.dev
     rows = [json.loads(line) for line in (work / "curve.jsonl").read_text().splitlines()]
     model, training = spec_of(args)
     trained = f"python benchmarks/gns_cpu.py train --work {work}{spec_flags(args)}"
@@ -238,7 +231,7 @@ def report(
         "model": asdict(model),
         "training": asdict(training),
         "train_data": {
-            "config": train_config,
+            "config": args.train_config,
             "runs": WindowSampler(str(work / "sets" / "train.h5"), model.history).n_trajectories,
         },
         "nodes_vs_particles": json.loads((work / "nodes_vs_particles.json").read_text()),
@@ -306,7 +299,7 @@ def main() -> None:
         train_in_stretches(args.work, args.dev, args.until, args.every, *spec_of(args))
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
-        report(args.work, args.out, command, args, args.coarser, args.dev, args.train_config)
+        report(args, command)
 
 
 if __name__ == "__main__":

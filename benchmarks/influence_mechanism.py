@@ -144,10 +144,11 @@ def main() -> None:
     fits = {f"{t:g}": mean_intervals(values[k]) for k, t in enumerate(THRESHOLDS_M)}
     jump = values[THRESHOLDS_M.index(1.0), -1] - values[THRESHOLDS_M.index(1.0), -2]
     picked = [indices[k] for k in np.argsort(-np.abs(jump))[: args.pictures]]
-    name = "influence_mechanism" + ("" if args.case == "case1" else f"_{args.case}")
+    other_case = args.case != "case1"
+    name = "influence_mechanism" + (f"_{args.case}" if other_case else "")
     draw(args.ends, args.case, args.cells, picked, dict(zip(indices, crests)), OUT / f"{name}.png")
     command = f"python benchmarks/influence_mechanism.py --ends <ends> --runs {args.runs.name}"
-    command += "" if args.case == "case1" else f" --case {args.case}"
+    command += f" --case {args.case}" if other_case else ""
     sizes = " / ".join(f"{h:g}" for h in args.cells)
 
     def cell(entry: list[float]) -> str:

@@ -49,6 +49,7 @@ from rgns.hazard.exceedance import sample_distance  # noqa: E402
 from rgns.montecarlo.runs import CaseInputs, RunSettings, run_realizations  # noqa: E402
 from rgns.provenance import commit  # noqa: E402
 from rgns.scene.realizations import accurate_case_inputs  # noqa: E402
+from rgns.scene.sets import test_cases  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "benchmarks" / "results"
@@ -128,9 +129,6 @@ def realizations_of(cases: list[str]) -> dict[str, int]:
     """How many realizations the store holds of each case at its finest level."""
     runs = load_runs(RUNS)
     return {case: len(indices_at(runs, case, min(h for c, h, _ in runs if c == case))) for case in cases}
-
-
-TEST_CASES = ("case1", "case2", "case3", "case4")
 
 
 def add_held_out_family(config: dict, name: str) -> None:
@@ -440,6 +438,7 @@ def exceeded_with(probability: float):
 
 def report(cases: list[str], cells: list[float], run_json: Path | None = None) -> None:
     gpu = other_runs()
+    default_cases = test_cases(load_config(REPO / "config" / "config.yaml")["sets"])
     how = (
         f"`python benchmarks/mesh_levels.py --run --cases case1 --device cuda --batch 64 --realizations 256 --runs "
         f"{RUNS.relative_to(REPO)}` on a GPU (an H200; without Snakemake there: `--resolved-config`, the default config "
@@ -453,7 +452,7 @@ def report(cases: list[str], cells: list[float], run_json: Path | None = None) -
         else "; ".join(
             f"`python benchmarks/mesh_levels.py --run --no-report --cases {case} --cells 1 0.5 0.25 0.125 "
             f"--seed {', '.join(map(str, seeds()))} --realizations {count} --runs {RUNS.relative_to(REPO)} "
-            f"--keep-ends <ends>" + (f" --held-out-family {case}`" if case not in TEST_CASES else "`")
+            f"--keep-ends <ends>" + ("`" if case in default_cases else f" --held-out-family {case}`")
             for case, count in realizations_of(cases).items()
         )
         + f" (each in two processes that split the realizations with `--first`), then `python benchmarks/mesh_levels.py "
