@@ -4,6 +4,7 @@ curve on a development set, in stretches that resume.
     python benchmarks/gns_cpu.py sets  --work W --train T.h5 --valid V.h5 --dev case1.h5 case2.h5 ...
     python benchmarks/gns_cpu.py train --work W --until 30000 --every 2000 [--static] --dev ...
     python benchmarks/gns_cpu.py report --work W --out benchmarks/results/gns_cpu --dev ...
+    python benchmarks/gns_cpu.py timeline --model CHECKPOINT --out benchmarks/results/gns_cpu_timeline --dev ...
 
 ``sets`` coarse-grains packed MPM sets (rgns.surrogates.gns.coarse: nodes ``--spacing`` apart, a step of ``--stride``
 frames; the default 0.5 m is the 1 m mesh's particle spacing, a node per particle: 1 m nodes put case 3's runout
@@ -13,7 +14,9 @@ particles' on the development sets.
 steps, and after every ``--every`` steps rolls the development sets out from their first ``history + 1``
 frames and records R², NRMSE and the relative bias of R, V and I per set against the MPM's (on the nodes), with
 bootstrap intervals, in ``W/curve.jsonl``: the decision rule of issue 63 reads it. ``report`` writes the curve,
-the spec and the nodes' fidelity as ``OUT.json`` and a table as ``OUT.md``.
+the spec and the nodes' fidelity as ``OUT.json`` and a table as ``OUT.md``. ``timeline`` rolls the development sets
+out with one checkpoint and records, every ``--every`` frames, each run's runout and fastest node in the MPM and in
+the GNS (when it follows the MPM and when it leaves it) as ``OUT.json``.
 """
 
 from __future__ import annotations
@@ -49,10 +52,12 @@ def spec(
     pushforward_steps: int = 0,
     learning_rate: float = 1e-3,
     ema_decay: float = 0.0,
+    decay_steps: int = 30000,
+    noise_std: float = 1e-3,
 ) -> tuple[ModelSettings, TrainSettings]:
     """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings; with
     ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target;
-    ``learning_rate`` is annealed to a hundredth of itself over 30,000 steps; with ``ema_decay`` the model evaluated
+    ``learning_rate`` is annealed to a hundredth of itself over ``decay_steps``; with ``ema_decay`` the model evaluated
     is the moving average of the weights."""
     model = ModelSettings(
         latent_size=64,
@@ -68,8 +73,8 @@ def spec(
         learning_rate=learning_rate,
         learning_rate_min=learning_rate / 100,
         decay_rate=0.01,
-        decay_steps=30000,  # fixed: a longer run continues the same schedule
-        noise_std=1e-3,
+        decay_steps=decay_steps,  # a longer run continues the same schedule
+        noise_std=noise_std,
         moving_weight=moving_weight,
         pushforward_steps=pushforward_steps,
         ema_decay=ema_decay,
@@ -143,6 +148,36 @@ def evaluate(model_path: Path, dev: list[Path], history: int) -> dict:
     return out
 
 
+def along_runs(runs: list[np.ndarray], volumes: list[np.ndarray], frames: list[int]) -> dict:
+    """Each run's runout and the displacement of its fastest node over the frame before, at ``frames``."""
+    return {
+        "runout_m": [[metrics_of(r[0], r[f], v)["runout_m"] for f in frames] for r, v in zip(runs, volumes)],
+        "fastest_m_per_frame": [[float(np.linalg.norm(r[f] - r[f - 1], axis=1).max()) for f in frames] for r in runs],
+    }
+
+
+@torch.no_grad()
+def timeline(model_path: Path, dev: list[Path], every: int) -> dict:
+    """Per development set, every ``every`` frames from the start: each run's runout and the speed of its fastest node
+    (m/s) in the MPM and in the GNS rolled out from the first frames, without early stop."""
+    simulator = load_simulator(model_path)
+    out = {}
+    for path in dev:
+        sampler = WindowSampler(str(path), simulator.settings.history)
+        truths = [sampler.frames_of(k, 0, sampler.frames) for k in range(sampler.n_trajectories)]
+        friction = [np.degrees(np.arctan(f.numpy())) for f in sampler.tan_friction]
+        results = rollout_soil(simulator, truths, friction, sampler.frames, RolloutSettings(keep="all"))
+        frames = list(range(every, sampler.frames, every))
+
+        out[path.stem] = {
+            "frame_interval_s": float(next(iter(read_packed(path))).frame_interval_s),
+            "frames": frames,
+            "mpm": along_runs(truths, sampler.volume_m2, frames),
+            "gns": along_runs([r.positions for r in results], sampler.volume_m2, frames),
+        }
+    return out
+
+
 def agreements(reference: list[dict], other: list[dict]) -> dict:
     """R², NRMSE and bias (rgns.surrogates.validation.agreement) of each metric of ``other``'s runs against
     ``reference``'s."""
@@ -156,7 +191,16 @@ def agreements(reference: list[dict], other: list[dict]) -> dict:
 
 def spec_of(args: argparse.Namespace) -> tuple[ModelSettings, TrainSettings]:
     """The spec the command line's flags ask for."""
-    return spec(args.static, args.radius, args.moving_weight, args.pushforward, args.learning_rate, args.ema_decay)
+    return spec(
+        args.static,
+        args.radius,
+        args.moving_weight,
+        args.pushforward,
+        args.learning_rate,
+        args.ema_decay,
+        args.decay_steps,
+        args.noise,
+    )
 
 
 def spec_flags(args: argparse.Namespace) -> str:
@@ -166,6 +210,8 @@ def spec_flags(args: argparse.Namespace) -> str:
     flags += f" --pushforward {args.pushforward}" if args.pushforward else ""
     flags += f" --learning-rate {args.learning_rate:g}" if args.learning_rate != 1e-3 else ""
     flags += f" --ema-decay {args.ema_decay:g}" if args.ema_decay else ""
+    flags += f" --decay-steps {args.decay_steps}" if args.decay_steps != 30000 else ""
+    flags += f" --noise {args.noise:g}" if args.noise != 1e-3 else ""
     return flags + f" --radius {args.radius:g}"
 
 
@@ -214,6 +260,34 @@ def rule_power(dev: list[Path], trials: int = 20000) -> dict:
         "trials": trials,
         "pass_rate_by_true_r2": power,
     }
+
+
+def write_timeline(args: argparse.Namespace, command: str) -> None:
+    """:func:`timeline` of ``--model`` as ``--out``.json and a table of the sets' mean runout and fastest node over
+    time as ``--out``.md."""
+    sets = timeline(args.model, args.dev, args.frames_every)
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    record = {"command": command, "commit": commit, "model": str(args.model), "sets": sets}
+    args.out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
+    lines = [f"# A GNS rollout over time against the MPM's\n\n`{command}` at {commit[:10]}.\n"]
+    for name, run in sets.items():
+        lines += [
+            f"## {name}\n",
+            "| time (s) | MPM mean R (m) | GNS mean R (m) | MPM fastest node (m/s) | GNS fastest node (m/s) |",
+            "|---:|---:|---:|---:|---:|",
+        ]
+        step = run["frame_interval_s"]
+        for k, frame in enumerate(run["frames"]):
+            cells = [
+                np.mean([r[k] for r in run[who][key]])
+                for key in ("runout_m", "fastest_m_per_frame")
+                for who in ("mpm", "gns")
+            ]
+            lines.append(
+                f"| {frame * step:.1f} | {cells[0]:.2f} | {cells[1]:.2f} | {cells[2] / step:.2f} | {cells[3] / step:.2f} |"
+            )
+        lines.append("")
+    args.out.with_suffix(".md").write_text("\n".join(lines))
 
 
 def report(args: argparse.Namespace, command: str) -> None:
@@ -268,10 +342,12 @@ def report(args: argparse.Namespace, command: str) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("action", choices=["sets", "train", "report"])
+    parser.add_argument("action", choices=["sets", "train", "report", "timeline"])
+    parser.add_argument("--model", type=Path, help="timeline: the checkpoint to roll out")
+    parser.add_argument("--frames-every", type=int, default=10, help="timeline: frames between records")
     parser.add_argument("--out", type=Path, help="report: the result files' path without suffix")
     parser.add_argument("--coarser", type=Path, help="report: a sets work folder of coarser nodes, to compare")
-    parser.add_argument("--work", type=Path, required=True)
+    parser.add_argument("--work", type=Path)
     parser.add_argument("--train", type=Path)
     parser.add_argument("--valid", type=Path)
     parser.add_argument("--dev", type=Path, nargs="+", required=True)
@@ -287,6 +363,12 @@ def main() -> None:
     parser.add_argument("--learning-rate", type=float, default=1e-3, help="initial learning rate")
     parser.add_argument("--ema-decay", type=float, default=0.0, help="evaluate the weights' moving average")
     parser.add_argument(
+        "--decay-steps", type=int, default=30000, help="steps over which the learning rate falls a hundredfold"
+    )
+    parser.add_argument(
+        "--noise", type=float, default=1e-3, help="input noise (m a step, random walk over the history)"
+    )
+    parser.add_argument(
         "--train-config", default="config/pretrain.yaml", help="report: the config that made the training set"
     )
     parser.add_argument("--static", action="store_true", help="give nodes where they started (static_features)")
@@ -299,7 +381,7 @@ def main() -> None:
         train_in_stretches(args.work, args.dev, args.until, args.every, *spec_of(args))
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
-        report(args, command)
+        (report if args.action == "report" else write_timeline)(args, command)
 
 
 if __name__ == "__main__":
