@@ -5,6 +5,7 @@ curve on a development set, in stretches that resume.
     python benchmarks/gns_cpu.py train --work W --until 30000 --every 2000 [--static] --dev ...
     python benchmarks/gns_cpu.py report --work W --out benchmarks/results/gns_cpu --dev ...
     python benchmarks/gns_cpu.py timeline --model CHECKPOINT --out benchmarks/results/gns_cpu_timeline --dev ...
+    python benchmarks/gns_cpu.py checkpoints --model C1 C2 ... [--average] --out OUT --dev ...
 
 ``sets`` coarse-grains packed MPM sets (rgns.surrogates.gns.coarse: nodes ``--spacing`` apart, a step of ``--stride``
 frames; the default 0.5 m is the 1 m mesh's particle spacing, a node per particle: 1 m nodes put case 3's runout
@@ -16,7 +17,8 @@ frames and records R², NRMSE and the relative bias of R, V and I per set agains
 bootstrap intervals, in ``W/curve.jsonl``: the decision rule of issue 63 reads it. ``report`` writes the curve,
 the spec and the nodes' fidelity as ``OUT.json`` and a table as ``OUT.md``. ``timeline`` rolls the development sets
 out with one checkpoint and records, every ``--every`` frames, each run's runout and fastest node in the MPM and in
-the GNS (when it follows the MPM and when it leaves it) as ``OUT.json``.
+the GNS (when it follows the MPM and when it leaves it) as ``OUT.json``. ``checkpoints`` evaluates each checkpoint
+named (and with ``--average`` the average of their weights) as ``train`` does, as ``OUT.json``.
 """
 
 from __future__ import annotations
@@ -262,12 +264,40 @@ def rule_power(dev: list[Path], trials: int = 20000) -> dict:
     }
 
 
+def averaged_checkpoint(paths: list[Path], out: Path) -> Path:
+    """A checkpoint whose model weights are the mean of those of ``paths`` (the last one's otherwise), at ``out``."""
+    states = [torch.load(path, map_location="cpu", weights_only=False) for path in paths]
+    averaged = states[-1]
+    averaged["model"] = {
+        key: torch.stack([state["model"][key] for state in states]).mean(0) if value.is_floating_point() else value
+        for key, value in averaged["model"].items()
+    }
+    torch.save(averaged, out)
+    return out
+
+
+def write_checkpoints(args: argparse.Namespace, command: str) -> None:
+    """Each of ``--model``'s checkpoints (and their weights' average with ``--average``) evaluated on ``--dev`` as
+    :func:`evaluate` does, as ``--out``.json."""
+    models = {str(path): path for path in args.model}
+    if args.average:
+        models["average"] = averaged_checkpoint(args.model, args.out.with_suffix(".average.pt"))
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    record: dict = {"command": command, "commit": commit, "models": {}}
+    for name, path in models.items():
+        record["models"][name] = evaluate(path, args.dev, load_simulator(path).settings.history)
+        row = {k: v["runout_m"] for k, v in record["models"][name].items()}
+        print(json.dumps({"model": name} | row), flush=True)
+        args.out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
+    args.out.with_suffix(".average.pt").unlink(missing_ok=True)
+
+
 def write_timeline(args: argparse.Namespace, command: str) -> None:
     """:func:`timeline` of ``--model`` as ``--out``.json and a table of the sets' mean runout and fastest node over
     time as ``--out``.md."""
-    sets = timeline(args.model, args.dev, args.frames_every)
+    sets = timeline(args.model[0], args.dev, args.frames_every)
     commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
-    record = {"command": command, "commit": commit, "model": str(args.model), "sets": sets}
+    record = {"command": command, "commit": commit, "model": str(args.model[0]), "sets": sets}
     args.out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
     lines = [f"# A GNS rollout over time against the MPM's\n\n`{command}` at {commit[:10]}.\n"]
     for name, run in sets.items():
@@ -342,8 +372,9 @@ def report(args: argparse.Namespace, command: str) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("action", choices=["sets", "train", "report", "timeline"])
-    parser.add_argument("--model", type=Path, help="timeline: the checkpoint to roll out")
+    parser.add_argument("action", choices=["sets", "train", "report", "timeline", "checkpoints"])
+    parser.add_argument("--model", type=Path, nargs="+", help="timeline, checkpoints: the checkpoints to roll out")
+    parser.add_argument("--average", action="store_true", help="checkpoints: also their weights' average")
     parser.add_argument("--frames-every", type=int, default=10, help="timeline: frames between records")
     parser.add_argument("--out", type=Path, help="report: the result files' path without suffix")
     parser.add_argument("--coarser", type=Path, help="report: a sets work folder of coarser nodes, to compare")
@@ -381,7 +412,7 @@ def main() -> None:
         train_in_stretches(args.work, args.dev, args.until, args.every, *spec_of(args))
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
-        (report if args.action == "report" else write_timeline)(args, command)
+        {"report": report, "timeline": write_timeline, "checkpoints": write_checkpoints}[args.action](args, command)
 
 
 if __name__ == "__main__":
