@@ -50,7 +50,16 @@ from evidence.fidelity import (
     tuned_least,
     tuned_speedups,
 )
-from evidence.gns import gns_cpu, gns_handover, gns_jitter, gns_recipe, gns_shipped, gns_training
+from evidence.gns import (
+    gns_checkpoints,
+    gns_cpu,
+    gns_handover,
+    gns_jitter,
+    gns_recipe,
+    gns_shipped,
+    gns_timeline,
+    gns_training,
+)
 from evidence.runs import (
     default_headline,
     default_run,
@@ -83,6 +92,8 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "gns-handover": gns_handover,
     "gns-shipped": gns_shipped,
     "gns-cpu": gns_cpu,
+    "gns-timeline": gns_timeline,
+    "gns-checkpoints": gns_checkpoints,
     "default-run": default_run,
     "default-headline": default_headline,
     "site-run": site_run,

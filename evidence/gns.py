@@ -146,6 +146,8 @@ VARIANTS = (  # gns_cpu.json with one change each, or a change and the data
     "gns_cpu_data.json",
     "gns_cpu_data_lr.json",
     "gns_cpu_data_ema.json",
+    "gns_cpu_data_anneal.json",
+    "gns_cpu_data_noise.json",
 )
 RANKED = "gns_cpu_data.json"  # the variant whose ranking and calibration the page shows
 UNRECORDED = {  # what a record made before a key existed ran with
@@ -158,6 +160,8 @@ CHANGES = {  # a spec key: how the sentence names its value
     "pushforward_steps": lambda v: f"each window's input the model's own rollout over {v} steps (push-forward)",
     "learning_rate": lambda v: f"learning rate {v:g}",
     "ema_decay": lambda v: f"the weights' moving average (decay {v:g} a step) evaluated",
+    "decay_steps": lambda v: f"the learning rate annealed a hundredfold over {v:,} steps",
+    "noise_std": lambda v: f"input noise {v:g} m",
     "train_data": lambda v: f"{v['runs']} training runs (`{v['config']}`)",
 }
 
@@ -252,3 +256,59 @@ def gns_cpu() -> str:
             *ranking_rows(result(RANKED)["curve"]),
         ]
     return "\n".join(lines + variant_lines)
+
+
+TIMELINE_S = (2.0, 4.0, 6.0, 8.0, 10.0)  # the times gns_cpu_timeline's table shows
+
+
+def timeline_mean(runs: list[list[float]], index: int) -> float:
+    """The mean over runs of each run's value at record ``index``."""
+    return statistics.fmean(run[index] for run in runs)
+
+
+def gns_timeline() -> str:
+    """docs/gns-training.md: one checkpoint's rollouts over time against the MPM's (gns_cpu_timeline.json): the mean
+    runout and the fastest node of each test case's development runs at TIMELINE_S."""
+    record = result("gns_cpu_timeline.json")
+    sets = record["sets"]
+    lines = [
+        "| case | " + " | ".join(f"{t:g} s: R MPM / GNS (m)" for t in TIMELINE_S) + " | fastest node at "
+        f"{TIMELINE_S[3]:g} s, MPM / GNS (m/s) |",
+        "|---|" + "---:|" * (len(TIMELINE_S) + 1),
+    ]
+    for name, run in sets.items():
+        step = run["frame_interval_s"]
+        at = {round(frame * step, 6): k for k, frame in enumerate(run["frames"])}
+        runout = [[timeline_mean(run[who]["runout_m"], at[t]) for who in ("mpm", "gns")] for t in TIMELINE_S]
+        cells = [f"{mpm:.1f} / {gns:.1f}" for mpm, gns in runout]
+        late = at[TIMELINE_S[3]]
+        fastest = [timeline_mean(run[who]["fastest_m_per_frame"], late) / step for who in ("mpm", "gns")]
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {fastest[0]:.2f} / {fastest[1]:.2f} |")
+    runs = len(next(iter(sets.values()))["mpm"]["runout_m"])
+    lines += [
+        "",
+        f"Mean over each case's {runs} development runs, rolled out from the first frames without early stop "
+        f"(`{record['command']}`; `benchmarks/results/gns_cpu_timeline.json` {made_note(record)}).",
+    ]
+    return "\n".join(lines)
+
+
+def gns_checkpoints() -> str:
+    """docs/gns-training.md: checkpoints of one training and their weights' average on the development sets
+    (gns_cpu_checkpoints.json): runout R² and relative bias per set."""
+    record = result("gns_cpu_checkpoints.json")
+    models = record["models"]
+    sets = [name for name in next(iter(models.values())) if name != "all"]
+    lines = [
+        "| checkpoint | " + " | ".join(f"{name}: R² | bias" for name in sets) + " |",
+        "|---|" + "---|---:|" * len(sets),
+    ]
+    for name, evaluated in models.items():
+        cells = []
+        for case in sets:
+            r = evaluated[case]["runout_m"]
+            cells += [f"{r['r2']:.2f} [{r['r2_low']:.2f}, {r['r2_high']:.2f}]", f"{r['relative_bias']:+.0%}"]
+        label = "their weights' average" if name == "average" else f"`{name.rsplit('/', 1)[-1]}`"
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    lines += ["", f"`{record['command']}`; `benchmarks/results/gns_cpu_checkpoints.json` {made_note(record)}."]
+    return "\n".join(lines)
