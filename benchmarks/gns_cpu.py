@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import subprocess
 import sys
 import time
 from dataclasses import asdict
@@ -36,6 +35,7 @@ import numpy as np
 import torch
 
 from rgns.engines.metrics import runout_metrics
+from rgns.provenance import commit
 from rgns.surrogates.gns.coarse import coarse_set
 from rgns.surrogates.gns.data import WindowSampler
 from rgns.surrogates.gns.rollout import RolloutSettings, rollout_soil
@@ -122,16 +122,22 @@ def make_sets(work: Path, train_set: Path, valid_set: Path, dev: list[Path], spa
         )
 
 
+def dev_runs(path: Path, history: int) -> tuple[WindowSampler, list[np.ndarray], list[np.ndarray]]:
+    """A development set's sampler, each run's MPM frames and its particles' friction angles (deg)."""
+    sampler = WindowSampler(str(path), history)
+    truths = [sampler.frames_of(k, 0, sampler.frames) for k in range(sampler.n_trajectories)]
+    friction = [np.degrees(np.arctan(f.numpy())) for f in sampler.tan_friction]
+    return sampler, truths, friction
+
+
 @torch.no_grad()
-def evaluate(model_path: Path, dev: list[Path], history: int) -> dict:
+def evaluate(model_path: Path, dev: list[Path]) -> dict:
     """R², NRMSE and relative bias of R, V, I per development set and pooled over all ("all"), rolled out from the
     first frames; each run's MPM and GNS values kept ("runs")."""
     simulator = load_simulator(model_path)
     out, pooled = {}, {"mpm": [], "gns": []}
     for path in dev:
-        sampler = WindowSampler(str(path), history)
-        truths = [sampler.frames_of(k, 0, sampler.frames) for k in range(sampler.n_trajectories)]
-        friction = [np.degrees(np.arctan(f.numpy())) for f in sampler.tan_friction]
+        sampler, truths, friction = dev_runs(path, simulator.settings.history)
         began = time.perf_counter()
         results = rollout_soil(
             simulator, truths, friction, sampler.frames, RolloutSettings(early_stop=True, keep="ends")
@@ -165,12 +171,9 @@ def timeline(model_path: Path, dev: list[Path], every: int) -> dict:
     simulator = load_simulator(model_path)
     out = {}
     for path in dev:
-        sampler = WindowSampler(str(path), simulator.settings.history)
-        truths = [sampler.frames_of(k, 0, sampler.frames) for k in range(sampler.n_trajectories)]
-        friction = [np.degrees(np.arctan(f.numpy())) for f in sampler.tan_friction]
+        sampler, truths, friction = dev_runs(path, simulator.settings.history)
         results = rollout_soil(simulator, truths, friction, sampler.frames, RolloutSettings(keep="all"))
         frames = list(range(every, sampler.frames, every))
-
         out[path.stem] = {
             "frame_interval_s": float(next(iter(read_packed(path))).frame_interval_s),
             "frames": frames,
@@ -229,7 +232,7 @@ def train_in_stretches(
         if target in done:
             continue
         row = {"step": target, "wall_s": summary["wall_s"], "static": model.static_features}
-        row["dev"] = evaluate(work / "model" / "checkpoints" / "latest.pt", [sets / p.name for p in dev], model.history)
+        row["dev"] = evaluate(work / "model" / "checkpoints" / "latest.pt", [sets / p.name for p in dev])
         with curve.open("a") as handle:
             handle.write(json.dumps(row) + "\n")
         print(json.dumps({"step": target} | {k: v["runout_m"] for k, v in row["dev"].items()}), flush=True)
@@ -282,10 +285,9 @@ def write_checkpoints(args: argparse.Namespace, command: str) -> None:
     models = {str(path): path for path in args.model}
     if args.average:
         models["average"] = averaged_checkpoint(args.model, args.out.with_suffix(".average.pt"))
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
-    record: dict = {"command": command, "commit": commit, "models": {}}
+    record: dict = {"command": command, "commit": commit(), "models": {}}
     for name, path in models.items():
-        record["models"][name] = evaluate(path, args.dev, load_simulator(path).settings.history)
+        record["models"][name] = evaluate(path, args.dev)
         row = {k: v["runout_m"] for k, v in record["models"][name].items()}
         print(json.dumps({"model": name} | row), flush=True)
         args.out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
@@ -296,10 +298,9 @@ def write_timeline(args: argparse.Namespace, command: str) -> None:
     """:func:`timeline` of ``--model`` as ``--out``.json and a table of the sets' mean runout and fastest node over
     time as ``--out``.md."""
     sets = timeline(args.model[0], args.dev, args.frames_every)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
-    record = {"command": command, "commit": commit, "model": str(args.model[0]), "sets": sets}
+    record = {"command": command, "commit": commit(), "model": str(args.model[0]), "sets": sets}
     args.out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
-    lines = [f"# A GNS rollout over time against the MPM's\n\n`{command}` at {commit[:10]}.\n"]
+    lines = [f"# A GNS rollout over time against the MPM's\n\n`{command}` at {record['commit']}.\n"]
     for name, run in sets.items():
         lines += [
             f"## {name}\n",
@@ -331,7 +332,7 @@ def report(args: argparse.Namespace, command: str) -> None:
     record = {
         "command": command,
         "train_command": f"{trained} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
-        "commit": subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip(),
+        "commit": commit(),
         "model": asdict(model),
         "training": asdict(training),
         "train_data": {
@@ -350,7 +351,7 @@ def report(args: argparse.Namespace, command: str) -> None:
     lines = [
         "# A lean GNS on one CPU thread, rolled out from the first frames",
         "",
-        f"`{record['train_command']}`, then `{command}` at {record['commit'][:10]}: R² of each development set's 16 runs against the MPM's (1 m, "
+        f"`{record['train_command']}`, then `{command}` at {record['commit']}: R² of each development set's 16 runs against the MPM's (1 m, "
         "rolled out from the first 6 frames at a step of 4 frames), 95 % bootstrap interval; relative bias of R.",
         "",
         "| steps | wall (min) | all R: R² | " + " | ".join(f"{name} R: R² | bias" for name in sets) + " | diverged |",

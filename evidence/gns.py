@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import statistics
 
-from evidence.formatting import minutes, power
+from evidence.formatting import bracketed, minutes, power
 from evidence.sources import RESULTS, card, made_note, result
 
 
@@ -121,6 +121,11 @@ def gns_shipped() -> str:
     )
 
 
+def runout_cells(entry: dict) -> list[str]:
+    """A gns_cpu evaluation's runout R² with its interval, and R's relative bias, as two table cells."""
+    return [bracketed([entry["r2"], entry["r2_low"], entry["r2_high"]], 2), f"{entry['relative_bias']:+.0%}"]
+
+
 def curve_rows(rows: list[dict]) -> list[str]:
     """A gns_cpu learning curve as table rows: per evaluation, the pooled and each test case's runout R² and bias."""
     sets = [name for name in rows[-1]["dev"] if name != "all"]
@@ -129,12 +134,9 @@ def curve_rows(rows: list[dict]) -> list[str]:
         "|---:|---:|---|" + "---|---:|" * len(sets),
     ]
     for row in rows:
-        cells = []
-        for name in sets:
-            r = row["dev"][name]["runout_m"]
-            cells += [f"{r['r2']:.2f} [{r['r2_low']:.2f}, {r['r2_high']:.2f}]", f"{r['relative_bias']:+.0%}"]
+        cells = [cell for name in sets for cell in runout_cells(row["dev"][name]["runout_m"])]
         pooled = row["dev"].get("all", {}).get("runout_m")
-        overall = f"{pooled['r2']:.2f} [{pooled['r2_low']:.2f}, {pooled['r2_high']:.2f}]" if pooled else "—"
+        overall = runout_cells(pooled)[0] if pooled else "—"
         lines.append(f"| {row['step']:,} | {minutes(row['wall_s'])} | {overall} | " + " | ".join(cells) + " |")
     return lines
 
@@ -304,10 +306,7 @@ def gns_checkpoints() -> str:
         "|---|" + "---|---:|" * len(sets),
     ]
     for name, evaluated in models.items():
-        cells = []
-        for case in sets:
-            r = evaluated[case]["runout_m"]
-            cells += [f"{r['r2']:.2f} [{r['r2_low']:.2f}, {r['r2_high']:.2f}]", f"{r['relative_bias']:+.0%}"]
+        cells = [cell for case in sets for cell in runout_cells(evaluated[case]["runout_m"])]
         label = "their weights' average" if name == "average" else f"`{name.rsplit('/', 1)[-1]}`"
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", f"`{record['command']}`; `benchmarks/results/gns_cpu_checkpoints.json` {made_note(record)}."]
