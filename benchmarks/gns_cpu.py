@@ -56,11 +56,14 @@ def spec(
     ema_decay: float = 0.0,
     decay_steps: int = 30000,
     noise_std: float = 1e-3,
+    rollout_steps: int = 0,
+    batch_graphs: int = 4,
 ) -> tuple[ModelSettings, TrainSettings]:
     """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings; with
     ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target;
     ``learning_rate`` is annealed to a hundredth of itself over ``decay_steps``; with ``ema_decay`` the model evaluated
-    is the moving average of the weights."""
+    is the moving average of the weights; with ``rollout_steps`` the loss is over that many of the model's own steps
+    (rgns.surrogates.gns.simulator.RolloutLoss)."""
     model = ModelSettings(
         latent_size=64,
         mlp_width=64,
@@ -71,7 +74,7 @@ def spec(
         static_features=static,
     )
     training = TrainSettings(
-        batch_graphs=4,
+        batch_graphs=batch_graphs,
         learning_rate=learning_rate,
         learning_rate_min=learning_rate / 100,
         decay_rate=0.01,
@@ -79,6 +82,7 @@ def spec(
         noise_std=noise_std,
         moving_weight=moving_weight,
         pushforward_steps=pushforward_steps,
+        rollout_steps=rollout_steps,
         ema_decay=ema_decay,
         smoothing_frames=1.0,
         checkpoint_every=250,
@@ -205,6 +209,8 @@ def spec_of(args: argparse.Namespace) -> tuple[ModelSettings, TrainSettings]:
         args.ema_decay,
         args.decay_steps,
         args.noise,
+        args.rollout_steps,
+        args.batch,
     )
 
 
@@ -217,18 +223,29 @@ def spec_flags(args: argparse.Namespace) -> str:
     flags += f" --ema-decay {args.ema_decay:g}" if args.ema_decay else ""
     flags += f" --decay-steps {args.decay_steps}" if args.decay_steps != 30000 else ""
     flags += f" --noise {args.noise:g}" if args.noise != 1e-3 else ""
+    flags += f" --rollout-steps {args.rollout_steps}" if args.rollout_steps else ""
+    flags += f" --batch {args.batch}" if args.batch != 4 else ""
+    flags += f" --init {args.init}" if args.init else ""
     return flags + f" --radius {args.radius:g}"
 
 
 def train_in_stretches(
-    work: Path, dev: list[Path], until: int, every: int, model: ModelSettings, training: TrainSettings
+    work: Path,
+    dev: list[Path],
+    until: int,
+    every: int,
+    model: ModelSettings,
+    training: TrainSettings,
+    init: Path | None = None,
 ) -> None:
     sets = work / "sets"
     curve = work / "curve.jsonl"
     done = {json.loads(line)["step"] for line in curve.read_text().splitlines()} if curve.exists() else set()
     for target in range(every, until + 1, every):
         training.steps = target
-        summary = train(model, training, str(sets / "train.h5"), str(sets / "valid.h5"), work / "model")
+        summary = train(
+            model, training, str(sets / "train.h5"), str(sets / "valid.h5"), work / "model", init_model=init
+        )
         if target in done:
             continue
         row = {"step": target, "wall_s": summary["wall_s"], "static": model.static_features}
@@ -400,6 +417,9 @@ def main() -> None:
     parser.add_argument(
         "--noise", type=float, default=1e-3, help="input noise (m a step, random walk over the history)"
     )
+    parser.add_argument("--rollout-steps", type=int, default=0, help="the loss over this many of the model's own steps")
+    parser.add_argument("--batch", type=int, default=4, help="windows a step")
+    parser.add_argument("--init", type=Path, help="train: start from this checkpoint's weights (fine-tune)")
     parser.add_argument(
         "--train-config", default="config/pretrain.yaml", help="report: the config that made the training set"
     )
@@ -410,7 +430,7 @@ def main() -> None:
     if args.action == "sets":
         make_sets(args.work, args.train, args.valid, args.dev, args.spacing, args.stride)
     elif args.action == "train":
-        train_in_stretches(args.work, args.dev, args.until, args.every, *spec_of(args))
+        train_in_stretches(args.work, args.dev, args.until, args.every, *spec_of(args), args.init)
     else:
         command = "python benchmarks/gns_cpu.py " + " ".join(sys.argv[1:])
         {"report": report, "timeline": write_timeline, "checkpoints": write_checkpoints}[args.action](args, command)

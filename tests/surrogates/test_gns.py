@@ -19,7 +19,14 @@ from conftest import REPO
 from rgns.surrogates.gns.data import WindowSampler
 from rgns.surrogates.gns.graph import brute_force_graph, radius_graph
 from rgns.surrogates.gns.rollout import RolloutSettings, rollout
-from rgns.surrogates.gns.simulator import GraphInput, LearnedSimulator, ModelSettings, Normalization, OneStepLoss
+from rgns.surrogates.gns.simulator import (
+    GraphInput,
+    LearnedSimulator,
+    ModelSettings,
+    Normalization,
+    OneStepLoss,
+    RolloutLoss,
+)
 from rgns.surrogates.gns.train import (
     TrainSettings,
     learning_rate,
@@ -522,6 +529,39 @@ def test_pushforward_trains_on_the_model_s_own_prediction(tiny_dataset, tmp_path
         selection_trajectories=1,
     )
     assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 30
+
+
+def test_the_rollout_loss_is_the_one_step_loss_over_one_step_and_zero_on_the_model_s_own_rollout(
+    tiny_dataset, tmp_path
+):
+    torch.manual_seed(3)
+    simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[-5.0, 40.0], [-5.0, 20.0]]))
+    window = WindowSampler(tiny_dataset["train"], SMALL.history, target_steps=4).sample(np.random.default_rng(1), 2)
+    graph, targets = window.graph, window.targets
+    noise = torch.randn(graph.positions.shape, generator=torch.Generator().manual_seed(0)) * 1e-3
+    one_step = OneStepLoss(simulator)(graph, targets[:, 0], noise)
+    # the same error, reached through positions (float32: a relative 1e-5 of rounding)
+    torch.testing.assert_close(RolloutLoss(simulator)(graph, targets[:, :1], noise), one_step, rtol=1e-4, atol=0.0)
+    with torch.no_grad():  # targets the model itself reaches: nothing to learn, at every step
+        positions, own = graph.positions, []
+        for _ in range(4):
+            own.append(simulator.next_positions(graph.moved_to(positions)))
+            positions = torch.cat([positions[:, 1:], own[-1][:, None]], dim=1)
+    zeros = torch.zeros_like(graph.positions)
+    assert float(RolloutLoss(simulator)(graph, torch.stack(own, dim=1), zeros)) < 1e-9
+    loss = RolloutLoss(simulator)(graph, targets, zeros)
+    loss.backward()  # the later steps' errors reach the weights through the earlier steps' predictions
+    assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in simulator.parameters() if p.requires_grad)
+    settings = TrainSettings(
+        steps=20,
+        batch_graphs=2,
+        rollout_steps=3,
+        log_every=10,
+        validate_every=10_000,
+        checkpoint_every=20,
+        selection_trajectories=1,
+    )
+    assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 20
 
 
 def test_keeping_only_the_ends_returns_exactly_those_frames_of_the_full_rollout(tiny_dataset):

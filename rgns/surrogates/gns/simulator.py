@@ -246,3 +246,28 @@ class OneStepLoss(nn.Module):
         else:
             counts = torch.zeros(graph.n_graphs, device=error.device).index_add_(0, graph.batch, weights)
         return (per_graph / counts).mean()
+
+
+class RolloutLoss(OneStepLoss):
+    """A loss over a rollout of the model's own steps: from a window's (noised) history the model steps
+    ``targets.shape[1]`` times on its own predictions, gradients through every step, put back inside the walls as a
+    rollout is. Step k is scored by its position error over k(k + 1)/2, in units of the acceleration's spread: the
+    mean acceleration error over the first k steps, which for k = 1 is the one-step loss's error and which a bias
+    the model keeps step after step (a deposit that does not come to rest) cannot average away. The loss is the mean
+    over the steps, each normalised error clipped at ``target_clip``."""
+
+    def forward(self, graph: GraphInput, targets: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        sim = self.simulator
+        positions = graph.positions + noise
+        targets = targets + noise[:, -1:]  # as OneStepLoss's: the noise's last offset is kept, its velocity undone
+        total = torch.zeros((), device=positions.device)
+        for k in range(targets.shape[1]):
+            predicted = sim(graph.moved_to(positions)) * sim.acceleration_std + sim.acceleration_mean
+            following = 2 * positions[:, -1] - positions[:, -2] + predicted
+            following = torch.maximum(torch.minimum(following, sim.bounds[:, 1]), sim.bounds[:, 0])
+            error = (following - targets[:, k]) / (sim.acceleration_std * (k + 1) * (k + 2) / 2)
+            if self.target_clip:
+                error = error.clamp(-self.target_clip, self.target_clip)
+            total = total + self._graph_mean(error.pow(2).sum(dim=1), graph, self.weights(graph, targets[:, k]))
+            positions = torch.cat([positions[:, 1:], following[:, None]], dim=1)
+        return total / targets.shape[1]

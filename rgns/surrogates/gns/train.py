@@ -47,6 +47,7 @@ from rgns.surrogates.gns.simulator import (
     ModelSettings,
     Normalization,
     OneStepLoss,
+    RolloutLoss,
     random_walk_noise,
 )
 
@@ -70,6 +71,7 @@ class TrainSettings:
     smoothing_frames: float = 2.0
     target_clip: float = 25.0
     pushforward_steps: int = 0
+    rollout_steps: int = 0  # > 0: the loss is RolloutLoss's over this many of the model's own steps
     moving_weight: float = 0.0  # extra weight of a particle that moves over its window (OneStepLoss)
     ema_decay: float = 0.0  # > 0: the model used is the moving average of the weights at this decay a step
     checkpoint_every: int = 200
@@ -315,7 +317,10 @@ def train(
     checkpoints = out_dir / "checkpoints"
     checkpoints.mkdir(parents=True, exist_ok=True)
     train_windows = WindowSampler(
-        train_path, model.history, max(1, settings.pushforward_steps + 1), settings.smoothing_frames
+        train_path,
+        model.history,
+        max(1, settings.pushforward_steps + 1, settings.rollout_steps),
+        settings.smoothing_frames,
     )
     valid_windows = WindowSampler(valid_path, model.history, 1, settings.smoothing_frames)
     batches = fixed_windows(valid_windows, settings.validation_windows)
@@ -348,7 +353,8 @@ def train(
             log.warning("%s was made with %s: kept as %s, training from scratch", latest, reason, stale)
             state = None
     simulator = simulator.to(device)
-    objective = OneStepLoss(simulator, settings.target_clip, settings.moving_weight)
+    loss_kind = RolloutLoss if settings.rollout_steps else OneStepLoss
+    objective = loss_kind(simulator, settings.target_clip, settings.moving_weight)
     step_module = DistributedDataParallel(objective) if distributed else objective
     optimizer = torch.optim.Adam(simulator.parameters(), lr=settings.learning_rate)
     averaged = AveragedModel(simulator, multi_avg_fn=moving_average(settings.ema_decay)) if settings.ema_decay else None
@@ -382,7 +388,9 @@ def train(
             group["lr"] = learning_rate(settings, step)
         window = train_windows.sample(rng, settings.batch_graphs)
         graph, targets = window.graph.to(device), window.targets.to(device)
-        if settings.pushforward_steps:
+        if settings.rollout_steps:
+            target = targets
+        elif settings.pushforward_steps:
             graph, target = pushforward(simulator, graph, targets)
         else:
             target = targets[:, 0]
