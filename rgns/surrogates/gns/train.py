@@ -377,7 +377,8 @@ def train(
             log.info("the checkpoint is at step %d, beyond the %d asked for: nothing to train", start, settings.steps)
     else:
         log.info(
-            "training from scratch: %d steps, %d parameters",
+            "training %s: %d steps, %d parameters",
+            f"from {init_model}" if init_model else "from scratch",
             settings.steps,
             sum(p.numel() for p in simulator.parameters()),
         )
