@@ -58,6 +58,7 @@ def spec(
     noise_std: float = 1e-3,
     rollout_steps: int = 0,
     batch_graphs: int = 4,
+    rollout_from_frame: int = 0,
 ) -> tuple[ModelSettings, TrainSettings]:
     """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings; with
     ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target;
@@ -83,6 +84,7 @@ def spec(
         moving_weight=moving_weight,
         pushforward_steps=pushforward_steps,
         rollout_steps=rollout_steps,
+        rollout_from_frame=rollout_from_frame,
         ema_decay=ema_decay,
         smoothing_frames=1.0,
         checkpoint_every=250,
@@ -211,6 +213,7 @@ def spec_of(args: argparse.Namespace) -> tuple[ModelSettings, TrainSettings]:
         args.noise,
         args.rollout_steps,
         args.batch,
+        args.rollout_from,
     )
 
 
@@ -224,6 +227,7 @@ def spec_flags(args: argparse.Namespace) -> str:
     flags += f" --decay-steps {args.decay_steps}" if args.decay_steps != 30000 else ""
     flags += f" --noise {args.noise:g}" if args.noise != 1e-3 else ""
     flags += f" --rollout-steps {args.rollout_steps}" if args.rollout_steps else ""
+    flags += f" --rollout-from {args.rollout_from}" if args.rollout_from else ""
     flags += f" --batch {args.batch}" if args.batch != 4 else ""
     flags += f" --init {args.init}" if args.init else ""
     return flags + f" --radius {args.radius:g}"
@@ -350,6 +354,7 @@ def report(args: argparse.Namespace, command: str) -> None:
         "command": command,
         "train_command": f"{trained} --every {rows[0]['step']} --dev " + " ".join(map(str, dev)),
         "commit": commit(),
+        "init": str(args.init) if args.init else None,
         "model": asdict(model),
         "training": asdict(training),
         "train_data": {
@@ -418,6 +423,9 @@ def main() -> None:
         "--noise", type=float, default=1e-3, help="input noise (m a step, random walk over the history)"
     )
     parser.add_argument("--rollout-steps", type=int, default=0, help="the loss over this many of the model's own steps")
+    parser.add_argument(
+        "--rollout-from", type=int, default=0, help="the rollout loss on windows from this frame, beside the one-step"
+    )
     parser.add_argument("--batch", type=int, default=4, help="windows a step")
     parser.add_argument("--init", type=Path, help="train: start from this checkpoint's weights (fine-tune)")
     parser.add_argument(

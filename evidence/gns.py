@@ -164,6 +164,9 @@ CHANGES = {  # a spec key: how the sentence names its value
     "ema_decay": lambda v: f"the weights' moving average (decay {v:g} a step) evaluated",
     "decay_steps": lambda v: f"the learning rate annealed a hundredfold over {v:,} steps",
     "noise_std": lambda v: f"input noise {v:g} m",
+    "rollout_steps": lambda v: f"the loss over {v} of the model's own steps, gradients through them (rollout loss)",
+    "rollout_from_frame": lambda v: f"that loss on windows from frame {v} on, the one-step loss on all beside it",
+    "batch_graphs": lambda v: f"{v} windows a step",
     "train_data": lambda v: f"{v['runs']} training runs (`{v['config']}`)",
 }
 
@@ -222,7 +225,9 @@ def gns_cpu() -> str:
         variant = result(name)
         variant_lines += [
             "",
-            f"The same spec with {spec_changes(record, variant)}, trained from scratch (`{variant['train_command']}`; "
+            f"The same spec with {spec_changes(record, variant)}, "
+            + (f"fine-tuned from `{variant['init']}`" if variant.get("init") else "trained from scratch")
+            + f" (`{variant['train_command']}`; "
             f"`benchmarks/results/{name}` {made_note(variant)}):",
             "",
             *curve_rows(variant["curve"]),

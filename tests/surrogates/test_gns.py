@@ -564,6 +564,33 @@ def test_the_rollout_loss_is_the_one_step_loss_over_one_step_and_zero_on_the_mod
     assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 20
 
 
+def test_late_windows_start_at_their_frame_and_train_beside_the_one_step_loss(tiny_dataset, tmp_path):
+    everywhere = WindowSampler(tiny_dataset["train"], SMALL.history, target_steps=3)
+    late = WindowSampler(tiny_dataset["train"], SMALL.history, target_steps=3, first_frame=4)
+    picks = late.draw(np.random.default_rng(0), 500)
+    assert min(start for _, start in picks) == 4
+    assert all(start + late.length <= late.real[k] for k, start in picks)
+    assert late.starts.sum() == np.maximum(everywhere.starts - 4, 0).sum()
+    window = late.window(picks[:1])
+    k, start = picks[0]
+    torch.testing.assert_close(
+        window.targets[:, 0], torch.from_numpy(late.frames_of(k, start + SMALL.history + 1, 1)[0])
+    )
+    settings = TrainSettings(
+        steps=20,
+        batch_graphs=2,
+        noise_std=0.0,
+        smoothing_frames=0.0,
+        rollout_steps=3,
+        rollout_from_frame=4,
+        log_every=10,
+        validate_every=10_000,
+        checkpoint_every=20,
+        selection_trajectories=1,
+    )
+    assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 20
+
+
 def test_keeping_only_the_ends_returns_exactly_those_frames_of_the_full_rollout(tiny_dataset):
     torch.manual_seed(5)
     simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))

@@ -46,8 +46,13 @@ def real_frames(positions: np.ndarray) -> int:
 class WindowSampler:
     """Random (trajectory, start frame) windows of a packed set's real frames, batched as disjoint graphs."""
 
-    def __init__(self, path: str, history: int, target_steps: int = 1, smoothing_frames: float = 0.0):
+    def __init__(
+        self, path: str, history: int, target_steps: int = 1, smoothing_frames: float = 0.0, first_frame: int = 0
+    ):
+        """Windows of ``history + 1`` input frames and ``target_steps`` targets, starting at ``first_frame`` or
+        later."""
         self.path, self.history, self.length = path, history, history + 1 + target_steps
+        self.first_frame = first_frame
         self.smoothing_frames = float(smoothing_frames)
         try:
             self.file = h5py.File(path, "r")
@@ -79,9 +84,11 @@ class WindowSampler:
         # run is at rest at its end and an MPM run at its start: holding those is right)
         reach = math.ceil(TRUNCATE * self.smoothing_frames) if self.smoothing_frames > 0 else 0
         usable = [real if real < self.frames else self.frames - reach for real in self.real]
-        self.starts = np.array([max(0, end - self.length + 1) for end in usable])
+        self.starts = np.array([max(0, end - self.length + 1 - first_frame) for end in usable])
         if self.starts.sum() == 0:
-            raise TrajectoryError(f"{path}: no trajectory has {self.length} frames before it stopped")
+            raise TrajectoryError(
+                f"{path}: no trajectory has {self.length} frames from frame {first_frame} before it stopped"
+            )
 
     @property
     def n_trajectories(self) -> int:
@@ -130,10 +137,10 @@ class WindowSampler:
         return Window(graph, positions[:, self.history + 1 :].contiguous())
 
     def draw(self, rng: np.random.Generator, graphs: int) -> list[tuple[int, int]]:
-        """``graphs`` (trajectory, start) picks, uniform over every window of real frames."""
+        """``graphs`` (trajectory, start) picks, uniform over every window of real frames from ``first_frame``."""
         flat = rng.integers(0, int(self.starts.sum()), graphs)
         trajectories = np.searchsorted(np.cumsum(self.starts), flat, side="right")
-        offsets = flat - np.concatenate([[0], np.cumsum(self.starts)])[trajectories]
+        offsets = flat - np.concatenate([[0], np.cumsum(self.starts)])[trajectories] + self.first_frame
         return list(zip(trajectories.tolist(), offsets.tolist()))
 
     def sample(self, rng: np.random.Generator, graphs: int) -> Window:

@@ -72,6 +72,7 @@ class TrainSettings:
     target_clip: float = 25.0
     pushforward_steps: int = 0
     rollout_steps: int = 0  # > 0: the loss is RolloutLoss's over this many of the model's own steps
+    rollout_from_frame: int = 0  # > 0: RolloutLoss on windows from this frame on, the one-step loss on all (MixedLoss)
     moving_weight: float = 0.0  # extra weight of a particle that moves over its window (OneStepLoss)
     ema_decay: float = 0.0  # > 0: the model used is the moving average of the weights at this decay a step
     checkpoint_every: int = 200
@@ -140,6 +141,18 @@ def moving_average(decay: float):
             mine.lerp_(theirs, 1.0 - rate)
 
     return update
+
+
+class MixedLoss(torch.nn.Module):
+    """The one-step loss on windows from anywhere in the runs plus the rollout loss on windows late in them (where a
+    deposit comes to rest), one module so that DistributedDataParallel averages both gradients."""
+
+    def __init__(self, one_step: OneStepLoss, rollout: RolloutLoss):
+        super().__init__()
+        self.one_step, self.rollout = one_step, rollout
+
+    def forward(self, graph: GraphInput, target: torch.Tensor, noise: torch.Tensor, late: tuple) -> torch.Tensor:
+        return self.one_step(graph, target, noise) + self.rollout(*late)
 
 
 def load_simulator(path: str | Path, device: str = "cpu") -> LearnedSimulator:
@@ -316,11 +329,19 @@ def train(
     out_dir = Path(out_dir)
     checkpoints = out_dir / "checkpoints"
     checkpoints.mkdir(parents=True, exist_ok=True)
+    mixed = bool(settings.rollout_steps and settings.rollout_from_frame)
     train_windows = WindowSampler(
         train_path,
         model.history,
-        max(1, settings.pushforward_steps + 1, settings.rollout_steps),
+        max(1, settings.pushforward_steps + 1, 0 if mixed else settings.rollout_steps),
         settings.smoothing_frames,
+    )
+    late_windows = (
+        WindowSampler(
+            train_path, model.history, settings.rollout_steps, settings.smoothing_frames, settings.rollout_from_frame
+        )
+        if mixed
+        else None
     )
     valid_windows = WindowSampler(valid_path, model.history, 1, settings.smoothing_frames)
     batches = fixed_windows(valid_windows, settings.validation_windows)
@@ -353,8 +374,11 @@ def train(
             log.warning("%s was made with %s: kept as %s, training from scratch", latest, reason, stale)
             state = None
     simulator = simulator.to(device)
-    loss_kind = RolloutLoss if settings.rollout_steps else OneStepLoss
-    objective = loss_kind(simulator, settings.target_clip, settings.moving_weight)
+    one_step = OneStepLoss(simulator, settings.target_clip, settings.moving_weight)
+    rollout = RolloutLoss(simulator, settings.target_clip, settings.moving_weight)
+    objective: torch.nn.Module = (
+        MixedLoss(one_step, rollout) if mixed else rollout if settings.rollout_steps else one_step
+    )
     step_module = DistributedDataParallel(objective) if distributed else objective
     optimizer = torch.optim.Adam(simulator.parameters(), lr=settings.learning_rate)
     averaged = AveragedModel(simulator, multi_avg_fn=moving_average(settings.ema_decay)) if settings.ema_decay else None
@@ -389,7 +413,7 @@ def train(
             group["lr"] = learning_rate(settings, step)
         window = train_windows.sample(rng, settings.batch_graphs)
         graph, targets = window.graph.to(device), window.targets.to(device)
-        if settings.rollout_steps:
+        if settings.rollout_steps and not mixed:
             target = targets
         elif settings.pushforward_steps:
             graph, target = pushforward(simulator, graph, targets)
@@ -400,7 +424,13 @@ def train(
             if settings.noise_std
             else torch.zeros_like(graph.positions)
         )
-        loss = step_module(graph, target, noise)
+        if late_windows is not None:
+            late = late_windows.sample(rng, settings.batch_graphs)
+            late_graph = late.graph.to(device)
+            late_noise = random_walk_noise(late_graph.positions, settings.noise_std, noise_generator)
+            loss = step_module(graph, target, noise, (late_graph, late.targets.to(device), late_noise))
+        else:
+            loss = step_module(graph, target, noise)
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
