@@ -150,10 +150,15 @@ VARIANTS = (  # gns_cpu.json with one change each, or a change and the data
     "gns_cpu_data_ema.json",
     "gns_cpu_data_anneal.json",
     "gns_cpu_data_noise.json",
+    "gns_cpu_roll8.json",
+    "gns_cpu_roll16.json",
+    "gns_cpu_late8.json",
 )
 RANKED = "gns_cpu_data.json"  # the variant whose ranking and calibration the page shows
 UNRECORDED = {  # what a record made before a key existed ran with
     "ema_decay": 0.0,
+    "rollout_steps": 0,
+    "rollout_from_frame": 0,
     "train_data": {"config": "config/pretrain.yaml", "runs": 168},
 }
 CHANGES = {  # a spec key: how the sentence names its value
@@ -166,7 +171,7 @@ CHANGES = {  # a spec key: how the sentence names its value
     "noise_std": lambda v: f"input noise {v:g} m",
     "rollout_steps": lambda v: f"the loss over {v} of the model's own steps, gradients through them (rollout loss)",
     "rollout_from_frame": lambda v: f"that loss on windows from frame {v} on, the one-step loss on all beside it",
-    "batch_graphs": lambda v: f"{v} windows a step",
+    "batch_graphs": lambda v: f"{v} window{'s' if v != 1 else ''} a step",
     "train_data": lambda v: f"{v['runs']} training runs (`{v['config']}`)",
 }
 
