@@ -509,6 +509,21 @@ def test_early_stop_ends_a_realization_at_rest_and_repeats_its_last_frame(tiny_d
     assert result.positions.shape[0] == SMALL.history + 20
 
 
+def _brief_training(dataset: dict, directory: Path, steps: int, **changes) -> dict:
+    """The small model trained ``steps`` steps on two windows a step with ``changes`` to the settings, one checkpoint
+    at the end and one held-out rollout: the summary."""
+    settings = TrainSettings(
+        steps=steps,
+        batch_graphs=2,
+        log_every=10,
+        validate_every=10_000,
+        checkpoint_every=steps,
+        selection_trajectories=1,
+        **changes,
+    )
+    return train(SMALL, settings, dataset["train"], dataset["valid"], directory)
+
+
 def test_pushforward_trains_on_the_model_s_own_prediction(tiny_dataset, tmp_path):
     torch.manual_seed(2)
     simulator = LearnedSimulator(SMALL, NORMALIZATION, np.array([[0.0, 20.0], [0.0, 10.0]]))
@@ -519,16 +534,7 @@ def test_pushforward_trains_on_the_model_s_own_prediction(tiny_dataset, tmp_path
     torch.testing.assert_close(graph.positions[:, -1], predicted)
     torch.testing.assert_close(graph.positions[:, :-1], window.graph.positions[:, 1:])
     torch.testing.assert_close(target, window.targets[:, -1])
-    settings = TrainSettings(
-        steps=30,
-        batch_graphs=2,
-        pushforward_steps=1,
-        log_every=10,
-        validate_every=10_000,
-        checkpoint_every=30,
-        selection_trajectories=1,
-    )
-    assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 30
+    assert _brief_training(tiny_dataset, tmp_path, 30, pushforward_steps=1)["steps"] == 30
 
 
 def test_the_rollout_loss_is_the_one_step_loss_over_one_step_and_zero_on_the_model_s_own_rollout(
@@ -552,21 +558,12 @@ def test_the_rollout_loss_is_the_one_step_loss_over_one_step_and_zero_on_the_mod
     loss = RolloutLoss(simulator)(graph, targets, zeros)
     loss.backward()  # the later steps' errors reach the weights through the earlier steps' predictions
     assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in simulator.parameters() if p.requires_grad)
-    settings = TrainSettings(
-        steps=20,
-        batch_graphs=2,
-        rollout_steps=3,
-        log_every=10,
-        validate_every=10_000,
-        checkpoint_every=20,
-        selection_trajectories=1,
-    )
-    assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 20
+    assert _brief_training(tiny_dataset, tmp_path, 20, rollout_steps=3)["steps"] == 20
 
 
 def test_late_windows_start_at_their_frame_and_train_beside_the_one_step_loss(tiny_dataset, tmp_path):
     everywhere = WindowSampler(tiny_dataset["train"], SMALL.history, target_steps=3)
-    late = WindowSampler(tiny_dataset["train"], SMALL.history, target_steps=3, first_frame=4)
+    late = everywhere.windows_from(4, target_steps=3)
     picks = late.draw(np.random.default_rng(0), 500)
     assert min(start for _, start in picks) == 4
     assert all(start + late.length <= late.real[k] for k, start in picks)
@@ -576,19 +573,8 @@ def test_late_windows_start_at_their_frame_and_train_beside_the_one_step_loss(ti
     torch.testing.assert_close(
         window.targets[:, 0], torch.from_numpy(late.frames_of(k, start + SMALL.history + 1, 1)[0])
     )
-    settings = TrainSettings(
-        steps=20,
-        batch_graphs=2,
-        noise_std=0.0,
-        smoothing_frames=0.0,
-        rollout_steps=3,
-        rollout_from_frame=4,
-        log_every=10,
-        validate_every=10_000,
-        checkpoint_every=20,
-        selection_trajectories=1,
-    )
-    assert train(SMALL, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)["steps"] == 20
+    changes = {"noise_std": 0.0, "smoothing_frames": 0.0, "rollout_steps": 3, "rollout_from_frame": 4}
+    assert _brief_training(tiny_dataset, tmp_path, 20, **changes)["steps"] == 20
 
 
 def test_keeping_only_the_ends_returns_exactly_those_frames_of_the_full_rollout(tiny_dataset):

@@ -14,6 +14,7 @@ Small sets are read into memory once; large ones are read window by window from 
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -46,13 +47,9 @@ def real_frames(positions: np.ndarray) -> int:
 class WindowSampler:
     """Random (trajectory, start frame) windows of a packed set's real frames, batched as disjoint graphs."""
 
-    def __init__(
-        self, path: str, history: int, target_steps: int = 1, smoothing_frames: float = 0.0, first_frame: int = 0
-    ):
-        """Windows of ``history + 1`` input frames and ``target_steps`` targets, starting at ``first_frame`` or
-        later."""
+    def __init__(self, path: str, history: int, target_steps: int = 1, smoothing_frames: float = 0.0):
         self.path, self.history, self.length = path, history, history + 1 + target_steps
-        self.first_frame = first_frame
+        self.first_frame = 0
         self.smoothing_frames = float(smoothing_frames)
         try:
             self.file = h5py.File(path, "r")
@@ -79,16 +76,29 @@ class WindowSampler:
             real_frames(self.positions[k] if self.positions is not None else g["positions"][()])
             for k, g in enumerate(self.groups)
         ]
+        self.starts = self._window_starts()
+
+    def _window_starts(self) -> np.ndarray:
+        """Per trajectory, how many windows of ``length`` frames start at ``first_frame`` or later."""
         # windows lie inside a trajectory's real frames; where a run went on to the last frame, the
         # smoothing would hold that frame, so the last reach of frames is left out too (an early-stopped
         # run is at rest at its end and an MPM run at its start: holding those is right)
         reach = math.ceil(TRUNCATE * self.smoothing_frames) if self.smoothing_frames > 0 else 0
         usable = [real if real < self.frames else self.frames - reach for real in self.real]
-        self.starts = np.array([max(0, end - self.length + 1 - first_frame) for end in usable])
-        if self.starts.sum() == 0:
+        starts = np.array([max(0, end - self.length + 1 - self.first_frame) for end in usable])
+        if starts.sum() == 0:
             raise TrajectoryError(
-                f"{path}: no trajectory has {self.length} frames from frame {first_frame} before it stopped"
+                f"{self.path}: no trajectory has {self.length} frames from frame {self.first_frame} before it stopped"
             )
+        return starts
+
+    def windows_from(self, first_frame: int, target_steps: int) -> WindowSampler:
+        """The same set's windows of ``target_steps`` targets starting at ``first_frame`` or later, sharing this
+        sampler's data (nothing is read again)."""
+        view = copy.copy(self)
+        view.length, view.first_frame = self.history + 1 + target_steps, first_frame
+        view.starts = view._window_starts()
+        return view
 
     @property
     def n_trajectories(self) -> int:

@@ -262,8 +262,7 @@ class RolloutLoss(OneStepLoss):
         targets = targets + noise[:, -1:]  # as OneStepLoss's: the noise's last offset is kept, its velocity undone
         total = torch.zeros((), device=positions.device)
         for k in range(targets.shape[1]):
-            predicted = sim(graph.moved_to(positions)) * sim.acceleration_std + sim.acceleration_mean
-            following = 2 * positions[:, -1] - positions[:, -2] + predicted
+            following = sim.next_positions(graph.moved_to(positions))
             following = torch.maximum(torch.minimum(following, sim.bounds[:, 1]), sim.bounds[:, 0])
             error = (following - targets[:, k]) / (sim.acceleration_std * (k + 1) * (k + 2) / 2)
             if self.target_clip:

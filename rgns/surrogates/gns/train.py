@@ -336,13 +336,7 @@ def train(
         max(1, settings.pushforward_steps + 1, 0 if mixed else settings.rollout_steps),
         settings.smoothing_frames,
     )
-    late_windows = (
-        WindowSampler(
-            train_path, model.history, settings.rollout_steps, settings.smoothing_frames, settings.rollout_from_frame
-        )
-        if mixed
-        else None
-    )
+    late_windows = train_windows.windows_from(settings.rollout_from_frame, settings.rollout_steps) if mixed else None
     valid_windows = WindowSampler(valid_path, model.history, 1, settings.smoothing_frames)
     batches = fixed_windows(valid_windows, settings.validation_windows)
     torch.manual_seed(settings.seed)
@@ -408,6 +402,12 @@ def train(
         )
     began = time.perf_counter() - elapsed
     running = []
+
+    def input_noise(positions: torch.Tensor) -> torch.Tensor:
+        if not settings.noise_std:
+            return torch.zeros_like(positions)
+        return random_walk_noise(positions, settings.noise_std, noise_generator)
+
     for step in range(start, settings.steps):
         for group in optimizer.param_groups:
             group["lr"] = learning_rate(settings, step)
@@ -419,16 +419,13 @@ def train(
             graph, target = pushforward(simulator, graph, targets)
         else:
             target = targets[:, 0]
-        noise = (
-            random_walk_noise(graph.positions, settings.noise_std, noise_generator)
-            if settings.noise_std
-            else torch.zeros_like(graph.positions)
-        )
+        noise = input_noise(graph.positions)
         if late_windows is not None:
             late = late_windows.sample(rng, settings.batch_graphs)
             late_graph = late.graph.to(device)
-            late_noise = random_walk_noise(late_graph.positions, settings.noise_std, noise_generator)
-            loss = step_module(graph, target, noise, (late_graph, late.targets.to(device), late_noise))
+            loss = step_module(
+                graph, target, noise, (late_graph, late.targets.to(device), input_noise(late_graph.positions))
+            )
         else:
             loss = step_module(graph, target, noise)
         optimizer.zero_grad()
