@@ -59,17 +59,18 @@ def spec(
     rollout_steps: int = 0,
     batch_graphs: int = 4,
     rollout_from_frame: int = 0,
+    message_passing_steps: int = 5,
 ) -> tuple[ModelSettings, TrainSettings]:
     """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings; with
     ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target;
     ``learning_rate`` is annealed to a hundredth of itself over ``decay_steps``; with ``ema_decay`` the model evaluated
     is the moving average of the weights; with ``rollout_steps`` the loss is over that many of the model's own steps
-    (rgns.surrogates.gns.simulator.RolloutLoss)."""
+    (rgns.surrogates.gns.simulator.RolloutLoss); ``message_passing_steps`` sets the reach, that many radii."""
     model = ModelSettings(
         latent_size=64,
         mlp_width=64,
         mlp_hidden_layers=2,
-        message_passing_steps=5,
+        message_passing_steps=message_passing_steps,
         history=5,
         radius_m=radius_m,
         static_features=static,
@@ -214,6 +215,7 @@ def spec_of(args: argparse.Namespace) -> tuple[ModelSettings, TrainSettings]:
         args.rollout_steps,
         args.batch,
         args.rollout_from,
+        args.message_passing,
     )
 
 
@@ -230,6 +232,7 @@ def spec_flags(args: argparse.Namespace) -> str:
     flags += f" --rollout-from {args.rollout_from}" if args.rollout_from else ""
     flags += f" --batch {args.batch}" if args.batch != 4 else ""
     flags += f" --init {args.init}" if args.init else ""
+    flags += f" --message-passing {args.message_passing}" if args.message_passing != 5 else ""
     return flags + f" --radius {args.radius:g}"
 
 
@@ -426,6 +429,7 @@ def main() -> None:
     parser.add_argument(
         "--rollout-from", type=int, default=0, help="the rollout loss on windows from this frame, beside the one-step"
     )
+    parser.add_argument("--message-passing", type=int, default=5, help="message-passing steps (the reach in radii)")
     parser.add_argument("--batch", type=int, default=4, help="windows a step")
     parser.add_argument("--init", type=Path, help="train: start from this checkpoint's weights (fine-tune)")
     parser.add_argument(

@@ -163,6 +163,7 @@ UNRECORDED = {  # what a record made before a key existed ran with
 }
 CHANGES = {  # a spec key: how the sentence names its value
     "radius_m": lambda v: f"radius {v:g} m",
+    "message_passing_steps": lambda v: f"{v} message-passing steps",
     "moving_weight": lambda v: f"each moving particle weighing 1 + {v:g} in the one-step loss",
     "pushforward_steps": lambda v: f"each window's input the model's own rollout over {v} steps (push-forward)",
     "learning_rate": lambda v: f"learning rate {v:g}",
