@@ -20,8 +20,8 @@ REPO = Path(__file__).resolve().parents[1]
 KERNELS = REPO / "rgns" / "engines" / "mpm" / "kernels.py"
 PHASES = {  # phase: (the shipped line that starts it, the same line switched off)
     "weights": (
-        "            outside[b] += _weights(",
-        "            if _ == 0:\n                outside[b] += _weights(",
+        "            outside[b] += _factors(",
+        "            if _ == 0:\n                outside[b] += _factors(",
     ),
     "p2g": (
         "            for s in range(slots):  # each array summed",
@@ -36,8 +36,8 @@ PHASES = {  # phase: (the shipped line that starts it, the same line switched of
         "            for q in range(0):\n                p = p0 + q\n                dxx, dyy",
     ),
     "force": (
-        "            for s in range(slots):\n                _force_scatter(",
-        "            for s in range(0):\n                _force_scatter(",
+        "            for s in range(slots):\n                r, c = _slot(s, slots)\n                _force_scatter(",
+        "            for s in range(0):\n                r, c = _slot(s, slots)\n                _force_scatter(",
     ),
     "g2p": (
         "    for q in range(count):\n        p = p0 + q\n        sum_ax",

@@ -6,9 +6,11 @@ is written out per particle, and the scatters sum each node's contributions in t
 torch engine to rounding (torch's CPU ``sqrt`` is not always correctly rounded; numba's is). A call
 advances every realization of a batch by its own substeps of one frame, one realization after another
 (they never share a node), so no Python runs between substeps. The grid is cleared and updated only over the
-box of rows and columns the particles reach (no other node is read). Serial ``@njit(cache=True)``: no
-threading layer beside torch's OpenMP, and a fresh process loads the compiled kernel from the cache
-(``__pycache__`` beside this file, or ``NUMBA_CACHE_DIR``).
+box of rows and columns the particles reach (no other node is read). A particle's weights are held as its first
+DOF and the 1-D factors along each axis (12 numbers, not a weight, a gradient and an id per slot: under half the
+memory), each slot's weight and gradient formed where it is used, the same products as the torch basis. Serial
+``@njit(cache=True)``: no threading layer beside torch's OpenMP, and a fresh process loads the compiled kernel from
+the cache (``__pycache__`` beside this file, or ``NUMBA_CACHE_DIR``).
 """
 
 from __future__ import annotations
@@ -64,9 +66,11 @@ def _finite_or_zero(a: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy, box):
-    """Slot ids and weights [K, P] of particles p0..p1 (shape.py's bases; ``grid`` as :func:`advance_frame`'s);
-    ``box``: the first and last column and row of the nodes they reach; returns how many lie outside the region."""
+def _factors(x, y, p0, p1, grid, spline, base, factors, box):
+    """Each of particles p0..p1's first DOF and the 1-D factors of its weights (shape.py's bases; ``grid`` as
+    :func:`advance_frame`'s): rows 0-2 wx, 3-5 ∂wx, 6-8 wy, 9-11 ∂wy along its DOFs' columns and rows (a slot's
+    weight is wy·wx, its gradient (wy·∂wx, ∂wy·wx) / h: the products the torch basis forms, made where they are
+    used); ``box``: the first and last column and row of the DOFs they reach; returns how many lie outside the region."""
     origin_x, origin_y, h, lower_x, lower_y = grid[0], grid[1], grid[2], grid[3], grid[4]
     nx, ny, mesh_nx, mesh_ny, inverse_h = int(grid[5]), int(grid[6]), int(grid[7]), int(grid[8]), grid[9]
     outside = 0
@@ -83,67 +87,50 @@ def _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy, box):
             wx0, wx1, wx2, dx0, dx1, dx2, i = _quadratic(u, nx)
             wy0, wy1, wy2, dy0, dy1, dy2, j = _quadratic(v, ny)
             i_low, i_high, j_low, j_high = min(i_low, i), max(i_high, i + 2), min(j_low, j), max(j_high, j + 2)
-            _spline_row(
-                0, (j + 0) * (nx + 2) + i, wy0, dy0, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy
-            )
-            _spline_row(
-                3, (j + 1) * (nx + 2) + i, wy1, dy1, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy
-            )
-            _spline_row(
-                6, (j + 2) * (nx + 2) + i, wy2, dy2, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy
-            )
-        else:
+            base[q] = j * (nx + 2) + i
+            factors[2, q], factors[5, q], factors[8, q], factors[11, q] = wx2, dx2, wy2, dy2
+        else:  # the cell's 4 nodes: the weights (1 - ξ, ξ) and their derivatives (-1, 1) along each axis
             u = u + lower_x
             v = v + lower_y
             ci = _clamp(np.floor(u), 0.0, mesh_nx - 1.0)
             cj = _clamp(np.floor(v), 0.0, mesh_ny - 1.0)
             xi = _clamp(u - ci, 0.0, 1.0)
             eta = _clamp(v - cj, 0.0, 1.0)
-            base = int(cj) * (mesh_nx + 1) + int(ci)
-            i_low, i_high = min(i_low, int(ci)), max(i_high, int(ci) + 1)
-            j_low, j_high = min(j_low, int(cj)), max(j_high, int(cj) + 1)
-            nodes[0, q], nodes[1, q] = base, base + 1
-            nodes[2, q], nodes[3, q] = base + mesh_nx + 2, base + mesh_nx + 1
-            w[0, q] = (1 - xi) * (1 - eta)
-            w[1, q] = xi * (1 - eta)
-            w[2, q] = xi * eta
-            w[3, q] = (1 - xi) * eta
-            gx[0, q], gx[1, q] = _per_h(eta - 1, h, inverse_h), _per_h(1 - eta, h, inverse_h)
-            gx[2, q], gx[3, q] = _per_h(eta, h, inverse_h), _per_h(-eta, h, inverse_h)
-            gy[0, q], gy[1, q] = _per_h(xi - 1, h, inverse_h), _per_h(-xi, h, inverse_h)
-            gy[2, q], gy[3, q] = _per_h(xi, h, inverse_h), _per_h(1 - xi, h, inverse_h)
+            i, j = int(ci), int(cj)
+            i_low, i_high, j_low, j_high = min(i_low, i), max(i_high, i + 1), min(j_low, j), max(j_high, j + 1)
+            base[q] = j * (mesh_nx + 1) + i
+            wx0, wx1, dx0, dx1 = 1 - xi, xi, -1.0, 1.0
+            wy0, wy1, dy0, dy1 = 1 - eta, eta, -1.0, 1.0
+        factors[0, q], factors[1, q], factors[3, q], factors[4, q] = wx0, wx1, dx0, dx1
+        factors[6, q], factors[7, q], factors[9, q], factors[10, q] = wy0, wy1, dy0, dy1
     box[0], box[1], box[2], box[3] = i_low, i_high, j_low, j_high
     return outside
 
 
 @njit(cache=True, inline="always")
-def _spline_row(s, first, wy, dy, wx0, wx1, wx2, dx0, dx1, dx2, h, inverse_h, q, nodes, w, gx, gy):
-    """Slots s, s + 1, s + 2 (one row of DOFs, the first at id ``first``) of particle q."""
-    nodes[s, q], nodes[s + 1, q], nodes[s + 2, q] = first, first + 1, first + 2
-    w[s, q], w[s + 1, q], w[s + 2, q] = wy * wx0, wy * wx1, wy * wx2
-    gx[s, q] = _per_h(wy * dx0, h, inverse_h)
-    gx[s + 1, q] = _per_h(wy * dx1, h, inverse_h)
-    gx[s + 2, q] = _per_h(wy * dx2, h, inverse_h)
-    gy[s, q] = _per_h(dy * wx0, h, inverse_h)
-    gy[s + 1, q] = _per_h(dy * wx1, h, inverse_h)
-    gy[s + 2, q] = _per_h(dy * wx2, h, inverse_h)
+def _slot(s, slots):
+    """The DOF row and column (from the particle's first DOF) of slot s, in the torch basis's slot order: row by row
+    for the spline's 9; the cell's corners anticlockwise, (0, 0), (0, 1), (1, 1), (1, 0), for the bilinear 4."""
+    if slots == 9:
+        return s // 3, s % 3
+    return s // 2, (s % 2) ^ (s // 2)
 
 
 @njit(cache=True, inline="always")
-def _scatter3(nodes, w, particle_mass, vx, vy, mass, momentum_x, momentum_y):
-    """mass[n] += w m, momentum[n] += w m v over one slot's particles in order. A node's running sums
-    stay in registers while consecutive particles share it: the same additions in the same order, no store and
-    reload between them."""
+def _scatter3(offset, r, c, base, factors, particle_mass, vx, vy, mass, momentum_x, momentum_y):
+    """mass[n] += w m, momentum[n] += w m v over one slot's particles in order (the slot's DOF ``offset`` from each
+    particle's first, its weight factors in rows r and c). A node's running sums stay in registers while consecutive
+    particles share it: the same additions in the same order, no store and reload between them."""
     current = -1
     m = mx = my = 0.0
     for q in range(len(vx)):
-        n = nodes[q]
+        n = base[q] + offset
         if n != current:
             if current >= 0:
                 mass[current], momentum_x[current], momentum_y[current] = m, mx, my
             current = n
             m, mx, my = mass[n], momentum_x[n], momentum_y[n]
-        weighted = w[q] * particle_mass[q]
+        weighted = (factors[6 + r, q] * factors[c, q]) * particle_mass[q]
         m += weighted
         mx += weighted * vx[q]
         my += weighted * vy[q]
@@ -152,22 +139,25 @@ def _scatter3(nodes, w, particle_mass, vx, vy, mass, momentum_x, momentum_y):
 
 
 @njit(cache=True, inline="always")
-def _force_scatter(nodes, gx, gy, w, stress, count, gravity_x, gravity_y, force_x, force_y):
+def _force_scatter(offset, r, c, base, factors, h, inverse_h, stress, count, gravity_x, gravity_y, force_x, force_y):
     """force[n] += −v (σ · ∇w) + w m g over one slot's first ``count`` particles in order, as :func:`_scatter3`;
     ``stress`` [P, 5]: each particle's σxx, σyy, τxy, −v and m side by side (one stream to read, not five)."""
     current = -1
     a = b = 0.0
     for q in range(count):
-        n = nodes[q]
+        n = base[q] + offset
         if n != current:
             if current >= 0:
                 force_x[current], force_y[current] = a, b
             current = n
             a, b = force_x[n], force_y[n]
+        wy, dy, wx, dx = factors[6 + r, q], factors[9 + r, q], factors[c, q], factors[3 + c, q]
+        gx = _per_h(wy * dx, h, inverse_h)
+        gy = _per_h(dy * wx, h, inverse_h)
         sxx, syy, txy, minus_v = stress[q, 0], stress[q, 1], stress[q, 2], stress[q, 3]
-        weighted = w[q] * stress[q, 4]
-        a += minus_v * (sxx * gx[q] + txy * gy[q]) + weighted * gravity_x
-        b += minus_v * (txy * gx[q] + syy * gy[q]) + weighted * gravity_y
+        weighted = (wy * wx) * stress[q, 4]
+        a += minus_v * (sxx * gx + txy * gy) + weighted * gravity_x
+        b += minus_v * (txy * gx + syy * gy) + weighted * gravity_y
     if current >= 0:
         force_x[current], force_y[current] = a, b
 
@@ -256,25 +246,29 @@ def _stress_update(sxx, syy, szz, txy, dxx, dyy, dxy, shear_modulus, lame_lambda
 
 
 @njit(cache=True, inline="always")
-def _strains(slots, count, nodes, gx, gy, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy):
+def _strains(slots, count, row, base, factors, h, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy):
     """Each particle's strain increments from the nodal velocities (four sums, each over the slots in order);
-    ``slots`` a literal at each call, so that the sums over it are unrolled."""
+    ``slots`` a literal at each call, so that the sums over it are unrolled; ``row``: DOFs in a row."""
     for q in range(count):
         lxx = 0.0
         lyy = 0.0
         lxy = 0.0
         lyx = 0.0
         for s in range(slots):
-            n = nodes[s, q]
-            lxx += node_vx[n] * gx[s, q]
-            lyy += node_vy[n] * gy[s, q]
-            lxy += node_vx[n] * gy[s, q]
-            lyx += node_vy[n] * gx[s, q]
+            r, c = _slot(s, slots)
+            n = base[q] + r * row + c
+            wy, dy, wx, dx = factors[6 + r, q], factors[9 + r, q], factors[c, q], factors[3 + c, q]
+            gx = _per_h(wy * dx, h, inverse_h)
+            gy = _per_h(dy * wx, h, inverse_h)
+            lxx += node_vx[n] * gx
+            lyy += node_vy[n] * gy
+            lxy += node_vx[n] * gy
+            lyx += node_vy[n] * gx
         strain_xx[q], strain_yy[q], strain_xy[q] = dt * lxx, dt * lyy, dt * (lxy + lyx)
 
 
 @njit(cache=True, inline="always")
-def _g2p(slots, p0, count, nodes, w, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy):
+def _g2p(slots, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy):
     """FLIP velocities (blended with PIC), positions with the new nodal velocities; ``slots`` as :func:`_strains`."""
     for q in range(count):
         p = p0 + q
@@ -283,8 +277,9 @@ def _g2p(slots, p0, count, nodes, w, node_ax, node_ay, new_vx, new_vy, dt, pic_b
         pic_x = 0.0
         pic_y = 0.0
         for s in range(slots):
-            n = nodes[s, q]
-            ws = w[s, q]
+            r, c = _slot(s, slots)
+            n = base[q] + r * row + c
+            ws = factors[6 + r, q] * factors[c, q]
             sum_ax += ws * node_ax[n]
             sum_ay += ws * node_ay[n]
             pic_x += ws * new_vx[n]
@@ -344,9 +339,8 @@ def advance_frame(
     largest = 0
     for b in range(len(substeps)):
         largest = max(largest, starts[b + 1] - starts[b])
-    nodes = np.empty((slots, largest), dtype=np.int32)
-    weights = np.empty((slots, largest, 3))  # w, ∂w/∂x, ∂w/∂y of a slot's particle side by side
-    w, gx, gy = weights[:, :, 0], weights[:, :, 1], weights[:, :, 2]
+    base = np.empty(largest, dtype=np.int64)  # each particle's first DOF
+    factors = np.empty((12, largest))  # and its weights' 1-D factors (_factors)
     strain_xx = np.empty(largest)
     strain_yy = np.empty(largest)
     strain_xy = np.empty(largest)
@@ -363,12 +357,13 @@ def advance_frame(
     new_vy = np.empty(n_nodes)
     box = np.empty(4, dtype=np.int64)
     row = int(grid[5]) + 2 if spline else int(grid[7]) + 1  # DOFs in a row
+    h, inverse_h = grid[2], grid[9]
     for b in range(len(substeps)):
         p0, p1 = starts[b], starts[b + 1]
         count = p1 - p0
         dt = dts[b]
         for _ in range(substeps[b]):
-            outside[b] += _weights(x, y, p0, p1, grid, spline, nodes, w, gx, gy, box)
+            outside[b] += _factors(x, y, p0, p1, grid, spline, base, factors, box)
             # p2g: nodal mass and momentum, slot by slot as torch's scatter_add_
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
@@ -376,7 +371,10 @@ def advance_frame(
                     force_x[n] = 0.0  # momentum first, forces later
                     force_y[n] = 0.0
             for s in range(slots):  # each array summed slot by slot, particle by particle
-                _scatter3(nodes[s], w[s], mass[p0:p1], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y)
+                r, c = _slot(s, slots)
+                _scatter3(
+                    r * row + c, r, c, base, factors, mass[p0:p1], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y
+                )
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
                     inverse = 1.0 / node_mass[n] if node_mass[n] > MASS_TOLERANCE else 0.0
@@ -387,9 +385,13 @@ def advance_frame(
                     force_y[n] = 0.0
             # strain increments from the nodal velocities (four sums, each over the slots in order)
             if spline:
-                _strains(9, count, nodes, gx, gy, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy)
+                _strains(
+                    9, count, row, base, factors, h, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy
+                )
             else:
-                _strains(4, count, nodes, gx, gy, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy)
+                _strains(
+                    4, count, row, base, factors, h, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy
+                )
             # the stress update and the new volume
             for q in range(count):
                 p = p0 + q
@@ -414,7 +416,22 @@ def advance_frame(
                 stress[q, 3], stress[q, 4] = -volume[p], mass[p]
             # grid update: internal and gravity forces, made and summed slot by slot
             for s in range(slots):
-                _force_scatter(nodes[s], gx[s], gy[s], w[s], stress, count, gravity_x, gravity_y, force_x, force_y)
+                r, c = _slot(s, slots)
+                _force_scatter(
+                    r * row + c,
+                    r,
+                    c,
+                    base,
+                    factors,
+                    h,
+                    inverse_h,
+                    stress,
+                    count,
+                    gravity_x,
+                    gravity_y,
+                    force_x,
+                    force_y,
+                )
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
                     inverse = inverse_mass[n]
@@ -440,9 +457,9 @@ def advance_frame(
                     new_vy[n] = 0.0 if fixed_y[n] else node_vy[n] + dt * ay
             # g2p: FLIP velocities (blended with PIC), positions with the new nodal velocities
             if spline:
-                _g2p(9, p0, count, nodes, w, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
+                _g2p(9, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
             else:
-                _g2p(4, p0, count, nodes, w, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
+                _g2p(4, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
 
 
 @njit(cache=True)
