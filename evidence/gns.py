@@ -153,8 +153,10 @@ VARIANTS = (  # gns_cpu.json with one change each, or a change and the data
     "gns_cpu_roll8.json",
     "gns_cpu_roll16.json",
     "gns_cpu_late8.json",
+    "gns_cpu_mp10.json",
+    "gns_cpu_roll4.json",
 )
-RANKED = "gns_cpu_data.json"  # the variant whose ranking and calibration the page shows
+RANKED = ("gns_cpu_data.json", "gns_cpu_mp10.json", "gns_cpu_roll4.json")  # variants whose ranking the page shows
 UNRECORDED = {  # what a record made before a key existed ran with
     "ema_decay": 0.0,
     "rollout_steps": 0,
@@ -259,14 +261,16 @@ def gns_cpu() -> str:
         f"{rates['0.85']['twice']:.0%}, one of 0.8 in {rates['0.8']['twice']:.1%} ({rule['trials']:,} simulated sets "
         "of unbiased normal errors).",
     ]
-    if (RESULTS / RANKED).exists():
+    for name in RANKED:
+        if not (RESULTS / name).exists():
+            continue
         variant_lines += [
             "",
-            f"What the runout R² of `{RANKED}` is made of: per test case, the correlation r of the GNS's 16 runouts with "
+            f"What the runout R² of `{name}` is made of: per test case, the correlation r of the GNS's 16 runouts with "
             "the MPM's (how well it ranks the realizations) and the ratio of their spreads (how far its runouts swing "
             "with the soil against the MPM's); R² is near 1 only where both are near 1 and the bias is small:",
             "",
-            *ranking_rows(result(RANKED)["curve"]),
+            *ranking_rows(result(name)["curve"]),
         ]
     return "\n".join(lines + variant_lines)
 
