@@ -117,10 +117,19 @@ def _slot(s, slots):
 
 
 @njit(cache=True, inline="always")
-def _scatter3(offset, r, c, base, factors, particle_mass, vx, vy, mass, momentum_x, momentum_y):
-    """mass[n] += w m, momentum[n] += w m v over one slot's particles in order (the slot's DOF ``offset`` from each
-    particle's first, its weight factors in rows r and c). A node's running sums stay in registers while consecutive
-    particles share it: the same additions in the same order, no store and reload between them."""
+def _gradient(factors, r, c, q, h, inverse_h):
+    """Slot (r, c)'s weight gradient of particle q: (wy·∂wx, ∂wy·wx) / h, as the torch basis forms it."""
+    gx = _per_h(factors[6 + r, q] * factors[3 + c, q], h, inverse_h)
+    gy = _per_h(factors[9 + r, q] * factors[c, q], h, inverse_h)
+    return gx, gy
+
+
+@njit(cache=True, inline="always")
+def _scatter3(r, c, row, base, factors, particle_mass, vx, vy, mass, momentum_x, momentum_y):
+    """mass[n] += w m, momentum[n] += w m v over slot (r, c)'s particles in order (its DOF r rows and c columns from
+    each particle's first, ``row`` DOFs a row). A node's running sums stay in registers while consecutive particles
+    share it: the same additions in the same order, no store and reload between them."""
+    offset = r * row + c
     current = -1
     m = mx = my = 0.0
     for q in range(len(vx)):
@@ -139,9 +148,10 @@ def _scatter3(offset, r, c, base, factors, particle_mass, vx, vy, mass, momentum
 
 
 @njit(cache=True, inline="always")
-def _force_scatter(offset, r, c, base, factors, h, inverse_h, stress, count, gravity_x, gravity_y, force_x, force_y):
-    """force[n] += −v (σ · ∇w) + w m g over one slot's first ``count`` particles in order, as :func:`_scatter3`;
+def _force_scatter(r, c, row, base, factors, h, inverse_h, stress, count, gravity_x, gravity_y, force_x, force_y):
+    """force[n] += −v (σ · ∇w) + w m g over slot (r, c)'s first ``count`` particles in order, as :func:`_scatter3`;
     ``stress`` [P, 5]: each particle's σxx, σyy, τxy, −v and m side by side (one stream to read, not five)."""
+    offset = r * row + c
     current = -1
     a = b = 0.0
     for q in range(count):
@@ -151,11 +161,9 @@ def _force_scatter(offset, r, c, base, factors, h, inverse_h, stress, count, gra
                 force_x[current], force_y[current] = a, b
             current = n
             a, b = force_x[n], force_y[n]
-        wy, dy, wx, dx = factors[6 + r, q], factors[9 + r, q], factors[c, q], factors[3 + c, q]
-        gx = _per_h(wy * dx, h, inverse_h)
-        gy = _per_h(dy * wx, h, inverse_h)
+        gx, gy = _gradient(factors, r, c, q, h, inverse_h)
         sxx, syy, txy, minus_v = stress[q, 0], stress[q, 1], stress[q, 2], stress[q, 3]
-        weighted = (wy * wx) * stress[q, 4]
+        weighted = (factors[6 + r, q] * factors[c, q]) * stress[q, 4]
         a += minus_v * (sxx * gx + txy * gy) + weighted * gravity_x
         b += minus_v * (txy * gx + syy * gy) + weighted * gravity_y
     if current >= 0:
@@ -257,9 +265,7 @@ def _strains(slots, count, row, base, factors, h, inverse_h, node_vx, node_vy, d
         for s in range(slots):
             r, c = _slot(s, slots)
             n = base[q] + r * row + c
-            wy, dy, wx, dx = factors[6 + r, q], factors[9 + r, q], factors[c, q], factors[3 + c, q]
-            gx = _per_h(wy * dx, h, inverse_h)
-            gy = _per_h(dy * wx, h, inverse_h)
+            gx, gy = _gradient(factors, r, c, q, h, inverse_h)
             lxx += node_vx[n] * gx
             lyy += node_vy[n] * gy
             lxy += node_vx[n] * gy
@@ -372,9 +378,7 @@ def advance_frame(
                     force_y[n] = 0.0
             for s in range(slots):  # each array summed slot by slot, particle by particle
                 r, c = _slot(s, slots)
-                _scatter3(
-                    r * row + c, r, c, base, factors, mass[p0:p1], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y
-                )
+                _scatter3(r, c, row, base, factors, mass[p0:p1], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y)
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
                     inverse = 1.0 / node_mass[n] if node_mass[n] > MASS_TOLERANCE else 0.0
@@ -418,19 +422,7 @@ def advance_frame(
             for s in range(slots):
                 r, c = _slot(s, slots)
                 _force_scatter(
-                    r * row + c,
-                    r,
-                    c,
-                    base,
-                    factors,
-                    h,
-                    inverse_h,
-                    stress,
-                    count,
-                    gravity_x,
-                    gravity_y,
-                    force_x,
-                    force_y,
+                    r, c, row, base, factors, h, inverse_h, stress, count, gravity_x, gravity_y, force_x, force_y
                 )
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
