@@ -155,8 +155,16 @@ VARIANTS = (  # gns_cpu.json with one change each, or a change and the data
     "gns_cpu_late8.json",
     "gns_cpu_mp10.json",
     "gns_cpu_roll4.json",
+    "gns_cpu_roll4_8k.json",
+    "gns_cpu_1000.json",
 )
-RANKED = ("gns_cpu_data.json", "gns_cpu_mp10.json", "gns_cpu_roll4.json")  # variants whose ranking the page shows
+RANKED = (
+    "gns_cpu_data.json",
+    "gns_cpu_mp10.json",
+    "gns_cpu_roll4.json",
+    "gns_cpu_roll4_8k.json",
+    "gns_cpu_1000.json",
+)  # variants whose ranking the page shows
 UNRECORDED = {  # what a record made before a key existed ran with
     "ema_decay": 0.0,
     "rollout_steps": 0,
