@@ -117,6 +117,12 @@ def _slot(s, slots):
 
 
 @njit(cache=True, inline="always")
+def _weight(factors, r, c, q):
+    """Slot (r, c)'s weight of particle q: wy·wx, as the torch basis forms it."""
+    return factors[6 + r, q] * factors[c, q]
+
+
+@njit(cache=True, inline="always")
 def _gradient(factors, r, c, q, h, inverse_h):
     """Slot (r, c)'s weight gradient of particle q: (wy·∂wx, ∂wy·wx) / h, as the torch basis forms it."""
     gx = _per_h(factors[6 + r, q] * factors[3 + c, q], h, inverse_h)
@@ -139,7 +145,7 @@ def _scatter3(r, c, row, base, factors, particle_mass, vx, vy, mass, momentum_x,
                 mass[current], momentum_x[current], momentum_y[current] = m, mx, my
             current = n
             m, mx, my = mass[n], momentum_x[n], momentum_y[n]
-        weighted = (factors[6 + r, q] * factors[c, q]) * particle_mass[q]
+        weighted = _weight(factors, r, c, q) * particle_mass[q]
         m += weighted
         mx += weighted * vx[q]
         my += weighted * vy[q]
@@ -163,7 +169,7 @@ def _force_scatter(r, c, row, base, factors, h, inverse_h, stress, count, gravit
             a, b = force_x[n], force_y[n]
         gx, gy = _gradient(factors, r, c, q, h, inverse_h)
         sxx, syy, txy, minus_v = stress[q, 0], stress[q, 1], stress[q, 2], stress[q, 3]
-        weighted = (factors[6 + r, q] * factors[c, q]) * stress[q, 4]
+        weighted = _weight(factors, r, c, q) * stress[q, 4]
         a += minus_v * (sxx * gx + txy * gy) + weighted * gravity_x
         b += minus_v * (txy * gx + syy * gy) + weighted * gravity_y
     if current >= 0:
@@ -285,7 +291,7 @@ def _g2p(slots, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy,
         for s in range(slots):
             r, c = _slot(s, slots)
             n = base[q] + r * row + c
-            ws = factors[6 + r, q] * factors[c, q]
+            ws = _weight(factors, r, c, q)
             sum_ax += ws * node_ax[n]
             sum_ay += ws * node_ay[n]
             pic_x += ws * new_vx[n]
