@@ -14,6 +14,7 @@ from rgns.scene.geometry import Scene, seed_particles
 from rgns.scene.realizations import CaseInputs, draw_realization
 from rgns.surrogates.endstate.card import check_serves
 from rgns.surrogates.endstate.data import EndState, EndStateDataError, read_end_states, write_end_states
+from rgns.surrogates.endstate.evaluate import EvaluationError, agreement_rows, paired_finals
 from rgns.surrogates.endstate.lattice import Lattice, LatticeError
 from rgns.surrogates.endstate.model import EndStateModel, EndStateModelError, Normalization, load_model
 from rgns.surrogates.endstate.train import EndStateTrainSettings, examples, held_out_loss, normalization_of, train
@@ -267,3 +268,31 @@ def test_threshold_term_pushes_points_across_the_threshold_the_metrics_count():
     assert short > 4 * past and short_slope < 0
     (stayed, _), (false_alarm, alarm_slope) = cost(0.5, 0.5), cost(1.1, 0.5)
     assert false_alarm > 5 * stayed and alarm_slope > 0
+
+
+def test_agreement_of_two_final_states_of_the_same_points(default_config):
+    """Another final state of the same points is scored as a model's: the MPM's own end state agrees exactly
+    (R² 1, bias 0), one slid 0.5 m further has a runout bias of 0.5 m; points the config does not seed are refused."""
+    inputs = CaseInputs.from_config(default_config, "case1")
+    metrics = MetricSettings(**default_config["metrics"])
+    states = []
+    for index in range(6):
+        scene = draw_realization(inputs, index).scene
+        slide, cut = 2.0 + 0.5 * index, 20.0 - index  # the material past x = cut slides, further for later indices
+        final = scene.positions + np.where(scene.positions[:, :1] > cut, [slide, 0.0], 0.0)
+        states.append(EndState("case1", index, scene.positions, final, np.full(len(final), 30.0), scene.volumes))
+    same = agreement_rows(paired_finals(states, [s.final for s in states], inputs, metrics))
+    assert [row["r2"] for row in same] == [1.0, 1.0, 1.0] and all(row["bias"] == 0.0 for row in same)
+    further = [s.final + np.where(s.final - s.initial != 0, [0.5, 0.0], 0.0) for s in states]
+    runout = agreement_rows(paired_finals(states, further, inputs, metrics))[0]
+    assert runout["metric"] == "runout" and runout["bias"] == pytest.approx(0.5, abs=1e-6)
+    moved = [
+        EndState(
+            "case1",
+            0,
+            states[0].initial + 0.25,
+            *[getattr(states[0], k) for k in ("final", "friction_deg", "volume_m2")],
+        )
+    ]
+    with pytest.raises(EvaluationError, match="case1 realization 0"):
+        paired_finals(moved, [states[0].final], inputs, metrics)

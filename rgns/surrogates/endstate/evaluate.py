@@ -36,23 +36,36 @@ def paired_metrics(
     model: EndStateModel, states: list[EndState], inputs: CaseInputs, metrics: MetricSettings, batch_size: int = 16
 ) -> pd.DataFrame:
     """One row per realization: R, V, I by MPM (``*_mpm``) and by the model (``*_model``)."""
+    finals = [
+        final
+        for first in range(0, len(states), batch_size)
+        for final in model.predict(
+            [s.initial for s in states[first : first + batch_size]],
+            [s.friction_deg for s in states[first : first + batch_size]],
+        )
+    ]
+    return paired_finals(states, finals, inputs, metrics)
+
+
+def paired_finals(
+    states: list[EndState], finals: list[np.ndarray], inputs: CaseInputs, metrics: MetricSettings
+) -> pd.DataFrame:
+    """One row per realization: R, V, I of the MPM's end state (``*_mpm``) and of another final state of the same
+    points (``*_model``: a model's, or another MPM run's)."""
     rows = []
-    for first in range(0, len(states), batch_size):
-        batch = states[first : first + batch_size]
-        predicted = model.predict([s.initial for s in batch], [s.friction_deg for s in batch])
-        for state, final in zip(batch, predicted):
-            scene = draw_scene(inputs, state.index)
-            if scene.positions.shape != state.initial.shape or not np.allclose(scene.positions, state.initial):
-                raise EvaluationError(
-                    f"{inputs.case} realization {state.index}: the end-state file's points are "
-                    "not the ones this config seeds (another seed or geometry?)"
-                )
-            crest = crest_x(scene.vertices)
-            row: dict[str, Any] = {"set": inputs.case, "index": state.index}
-            for source, end in (("mpm", state.final), ("model", final)):
-                measured = runout_metrics(state.initial, end, state.volume_m2, crest, metrics).as_row()
-                row |= {f"{stem}_{source}": measured[stem] for stem, _ in METRICS.values()}
-            rows.append(row)
+    for state, final in zip(states, finals, strict=True):
+        scene = draw_scene(inputs, state.index)
+        if scene.positions.shape != state.initial.shape or not np.allclose(scene.positions, state.initial):
+            raise EvaluationError(
+                f"{inputs.case} realization {state.index}: the end-state file's points are "
+                "not the ones this config seeds (another seed or geometry?)"
+            )
+        crest = crest_x(scene.vertices)
+        row: dict[str, Any] = {"set": inputs.case, "index": state.index}
+        for source, end in (("mpm", state.final), ("model", final)):
+            measured = runout_metrics(state.initial, end, state.volume_m2, crest, metrics).as_row()
+            row |= {f"{stem}_{source}": measured[stem] for stem, _ in METRICS.values()}
+        rows.append(row)
     return pd.DataFrame(rows)
 
 
