@@ -211,3 +211,26 @@ def ood_bias_and_cost(record: dict[str, Any], rows: dict[tuple[str, str], dict[s
         f"{cost['mpm_s']:.2f} s ({cost['ratio']:.0f}×, one thread each, {cost['realizations']} realizations of "
         f"{cost['case'].replace('case', 'case ')})."
     )
+
+
+def ood_floor() -> str:
+    """docs/surrogates.md: R² of I and V, the geometry-general surrogate against the 1 m MPM beside the same MPM at a
+    smaller time step against it (what an exact surrogate of either run would score), per set, on the development
+    seed (ood_surrogate_floor_dev.json)."""
+    record = result("ood_surrogate_floor_dev.json")
+    cfl = float(record["command"].split("--mpm-floor ")[1].split()[0])
+    model, floor = ({(row["set"], row["metric"]): row for row in record[key]} for key in ("model", "mpm_floor"))
+    sets = list(dict.fromkeys(row["set"] for row in record["model"]))
+    lines = [
+        f"| set | I: model | I: MPM at CFL {cfl:g} | V: model | V: MPM at CFL {cfl:g} |",
+        "|---|---|---|---|---|",
+    ]
+    for name in sets:
+        cells = [
+            f"{r2_interval(rows[name, metric])}, {signed_percent(rows[name, metric]['relative_bias'])}"
+            for metric in ("influence", "volume")
+            for rows in (model, floor)
+        ]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += ["", f"Seed {record['data_seed']}; `{record['command']}` ({made_note(record)})."]
+    return "\n".join(lines)
