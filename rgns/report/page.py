@@ -275,8 +275,8 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
 
 
 INFLUENCE_UNCONVERGED = (
-    "no converged value under refinement: on finer meshes a few surface points lifted far behind the crest set it "
-    "(docs/evidence.md)"
+    "no converged value under refinement: on finer meshes a few surface points lifted far behind the crest set it, "
+    "and a smaller time step shortens it (docs/evidence.md)"
 )
 
 
