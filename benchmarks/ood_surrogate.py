@@ -32,24 +32,50 @@ from rgns.engines.metrics import MetricSettings
 from rgns.provenance import commit
 from rgns.scene.realizations import CaseInputs
 from rgns.surrogates.endstate.data import read_end_states, simulate_end_states, write_end_states
-from rgns.surrogates.endstate.evaluate import agreement_rows, agreement_table, markdown_table, paired_finals
+from rgns.surrogates.endstate.evaluate import agreement_rows, markdown_table, paired_finals, paired_metrics
 from rgns.surrogates.endstate.model import load_model
+from rgns.surrogates.validation import METRICS, r2_difference
 from rgns.trajectories import frame_count
 
 REPO = Path(__file__).resolve().parent.parent
 
 
-def evaluate(model_path: str, config: dict, data: Path, sets: list[str], realizations: int) -> pd.DataFrame:
-    """The agreement rows of a model on every set's end states (the first ``realizations`` of each)."""
+def pairs(model_path: str, config: dict, data: Path, sets: list[str], realizations: int) -> dict[str, pd.DataFrame]:
+    """Per set, R, V and I of each realization by the MPM and by a model (the first ``realizations`` of each)."""
     seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
-    chosen = {
-        name: (
+    model = load_model(model_path)
+    return {
+        name: paired_metrics(
+            model,
             [s for s in read_end_states(sorted((data / name).glob("chunk_*.h5"))) if s.index < realizations],
             CaseInputs.from_config(seeded, name),
+            MetricSettings(**config["metrics"]),
         )
         for name in sets
     }
-    return agreement_table(load_model(model_path), chosen, MetricSettings(**config["metrics"]))
+
+
+def agreement(paired: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """The agreement rows of every set."""
+    return pd.DataFrame([row for table in paired.values() for row in agreement_rows(table)])
+
+
+def differences(new: dict[str, pd.DataFrame], old: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """Per set and metric, R² of the new model minus the old one's on the same realizations, with a paired bootstrap
+    interval at the Bonferroni level of all the rows (95 % for the table as a whole): a row is ``worse`` or
+    ``better`` where its interval excludes 0. A model exactly as good as the old one has a row called worse with
+    probability at most 2.5 %."""
+    rows = []
+    count = len(new) * len(METRICS)
+    for name, table in new.items():
+        for metric, (stem, _) in METRICS.items():
+            mpm, first, second = table[f"{stem}_mpm"], table[f"{stem}_model"], old[name][f"{stem}_model"]
+            delta, low, high = r2_difference(mpm, first, second, confidence=1 - 0.05 / count)
+            verdict = "worse" if high < 0 else "better" if low > 0 else "–"
+            rows.append(
+                {"set": name, "metric": metric, "delta_r2": delta, "low": low, "high": high, "verdict": verdict}
+            )
+    return pd.DataFrame(rows)
 
 
 def simulate_missing(config: dict, data: Path, sets: list[str], realizations: int, chunk: int = 16) -> None:
@@ -157,9 +183,12 @@ def main() -> None:
         "data_seed": config["endstate"]["validation"]["data_seed"],
         "commit": commit(),
     }
-    tables = {"model": evaluate(args.model, config, Path(args.data), sets, args.realizations)}
+    paired = {"model": pairs(args.model, config, Path(args.data), sets, args.realizations)}
     if args.compare:
-        tables["compare"] = evaluate(args.compare, config, Path(args.data), sets, args.realizations)
+        paired["compare"] = pairs(args.compare, config, Path(args.data), sets, args.realizations)
+    tables = {name: agreement(table) for name, table in paired.items()}
+    if args.compare:
+        tables["difference"] = differences(paired["model"], paired["compare"])
     if args.mpm_floor:
         tables["mpm_floor"] = mpm_floor(config, Path(args.data), sets, args.realizations, args.mpm_floor)
     result |= {name: table.to_dict("records") for name, table in tables.items()}
@@ -177,6 +206,24 @@ def main() -> None:
     ]
     if args.compare:
         lines += [f"## {args.compare}", "", markdown_table(tables["compare"])]
+        change = tables["difference"]
+        lines += [
+            f"## R² of {args.model} minus {args.compare}, same realizations",
+            "",
+            f"Paired bootstrap intervals at {100 * (1 - 0.05 / len(change)):.2f} % each (95 % for the {len(change)} "
+            "rows together): a row is worse or better where its interval excludes 0.",
+            "",
+            "| set | metric | ΔR² | interval | verdict |",
+            "| --- | --- | ---: | --- | --- |",
+            *(
+                f"| {r.set} | {r.metric} | {r.delta_r2:+.3f} | [{r.low:+.3f}, {r.high:+.3f}] | {r.verdict} |"
+                for r in change.itertuples()
+            ),
+            "",
+            f"Better in {(change.verdict == 'better').sum()} rows, worse in {(change.verdict == 'worse').sum()}, "
+            f"higher point R² in {(change.delta_r2 > 0).sum()} of {len(change)}.",
+            "",
+        ]
     if args.mpm_floor:
         lines += [
             f"## The MPM at CFL {args.mpm_floor:g} against the MPM (as a model: an exact surrogate's agreement)",

@@ -102,6 +102,28 @@ def paired_interval(
     return float(low), float(high)
 
 
+def r2_difference(
+    mpm: np.ndarray,
+    first: np.ndarray,
+    second: np.ndarray,
+    bootstrap: int = 2000,
+    confidence: float = 0.95,
+    seed: int = 0,
+) -> tuple[float, float, float]:
+    """R² of ``first`` minus R² of ``second``, both against the same MPM values, and its percentile-bootstrap
+    interval, resampling realizations (the MPM's and both models' values together); NaN where undefined."""
+    mpm, first, second = (np.asarray(values, dtype=float) for values in (mpm, first, second))
+    difference = r_squared(mpm, first) - r_squared(mpm, second)
+    if mpm.size < 3 or not math.isfinite(difference):
+        return difference, math.nan, math.nan
+    pick = np.random.default_rng(seed).integers(0, mpm.size, size=(bootstrap, mpm.size))
+    values = _r2_along(mpm[pick], first[pick]) - _r2_along(mpm[pick], second[pick])
+    values = values[np.isfinite(values)]
+    tail_pct = 50.0 * (1.0 - confidence)
+    low, high = np.percentile(values, [tail_pct, 100.0 - tail_pct])
+    return difference, float(low), float(high)
+
+
 def bootstrap_mean_interval(values: np.ndarray, bootstrap: int, confidence: float, seed: int) -> tuple[float, float]:
     """Percentile-bootstrap interval of the mean, resampling ``values`` with replacement."""
     values = np.asarray(values, dtype=float)

@@ -14,6 +14,7 @@ from rgns.surrogates.validation import (
     agreement,
     best_median_worst,
     case_agreement,
+    r2_difference,
     r_squared,
     validation_table,
 )
@@ -240,3 +241,16 @@ def test_the_parity_and_histogram_figures_draw_each_cases_own_pairs_and_r2(tmp_p
             edges = [bar.get_x() for bar in mpm] + [mpm[-1].get_x() + mpm[-1].get_width()]
             outline = simulator.get_path().vertices[:, 0]
             assert min(outline) == pytest.approx(edges[0]) and max(outline) == pytest.approx(edges[-1])
+
+
+def test_r2_difference_is_paired_and_its_interval_excludes_zero_only_for_a_real_gain():
+    """Two models with the same errors differ by exactly 0 with a zero-width interval (the resamples are paired);
+    a model with half the error is better by 3/4 of the other's unexplained share, its interval above 0."""
+    rng = np.random.default_rng(3)
+    mpm = rng.normal(5.0, 1.0, 64)
+    noise = rng.normal(0.0, 0.5, 64)
+    same = r2_difference(mpm, mpm + noise, mpm + noise)
+    assert same == (0.0, 0.0, 0.0)
+    better, low, high = r2_difference(mpm, mpm + noise / 2, mpm + noise)
+    assert better == pytest.approx(0.75 * (1 - r_squared(mpm, mpm + noise)))
+    assert 0.0 < low < better < high
