@@ -16,7 +16,7 @@ from rgns.surrogates.endstate.card import check_serves
 from rgns.surrogates.endstate.data import EndState, EndStateDataError, read_end_states, write_end_states
 from rgns.surrogates.endstate.evaluate import EvaluationError, agreement_rows, paired_finals
 from rgns.surrogates.endstate.lattice import Lattice, LatticeError
-from rgns.surrogates.endstate.model import EndStateModel, EndStateModelError, Normalization, load_model
+from rgns.surrogates.endstate.model import EndStateModel, EndStateModelError, Normalization, load_model, on_side
 from rgns.surrogates.endstate.train import EndStateTrainSettings, examples, held_out_loss, normalization_of, train
 from rgns.surrogates.pairing import pair_end_states
 from rgns.surrogates.shipped import ShippedModelError
@@ -296,3 +296,60 @@ def test_agreement_of_two_final_states_of_the_same_points(default_config):
     ]
     with pytest.raises(EvaluationError, match="case1 realization 0"):
         paired_finals(moved, [states[0].final], inputs, metrics)
+
+
+def test_fine_tuning_starts_from_the_trained_model(tmp_path):
+    """Fine-tuned for 10 steps from a trained model, a model keeps that model's normalisation and its held-out loss
+    (near the trained one's); the same 10 steps from scratch are nowhere near."""
+    torch.manual_seed(0)
+    settings = EndStateTrainSettings(widths=(8, 16, 32), steps=200, batch_size=8, learning_rate=3e-3, threads=1)
+    held = synthetic_states(24, seed=2)
+    base, trained = train(synthetic_states(96, seed=1), held, LATTICE, settings, tmp_path / "base")
+    brief = EndStateTrainSettings(
+        widths=(8, 16, 32), steps=10, batch_size=8, learning_rate=1e-4, checkpoint_every=10, threads=1
+    )
+    more = synthetic_states(48, seed=5)
+    tuned, history = train(more, held, LATTICE, brief, tmp_path / "tuned", start=base)
+    _, scratch = train(more, held, LATTICE, brief, tmp_path / "scratch")
+    assert tuned.normalization == base.normalization
+    assert history[-1]["valid_loss"] < 1.5 * trained[-1]["valid_loss"] < 0.1 * scratch[-1]["valid_loss"]
+
+
+def test_the_moved_head_puts_each_displacement_on_its_side_of_the_threshold():
+    """A point the head calls moved ends at least the threshold away along its own direction, one it calls still ends
+    short of it; displacements already on their side are kept; a moved point with no displacement moves down."""
+    displacement = np.array([[0.6, 0.8], [3.0, 0.0], [0.0, 1.2], [0.3, 0.0], [0.0, 0.0]])
+    moved = np.array([True, True, False, False, True])
+    placed = on_side(displacement, moved, threshold_m=1.0)
+    length = np.linalg.norm(placed, axis=1)
+    assert (length[moved] >= 1.0).all() and (length[~moved] < 1.0).all()
+    np.testing.assert_allclose(placed[[1, 3]], displacement[[1, 3]])
+    np.testing.assert_allclose(placed[0] / length[0], [0.6, 0.8])
+    assert placed[4, 0] == 0.0 and placed[4, 1] < -1.0
+
+
+def test_a_moved_head_grown_on_a_trained_model_starts_at_its_displacements_and_learns_from_the_threshold_term(
+    tmp_path,
+):
+    """Grown on a two-channel model, the head starts at logit 0 and leaves the displacement channels as they were;
+    the threshold term trains the head's logit (not the displacement's length); the head survives a save."""
+    states = synthetic_states(8, seed=6)
+    plain, _ = train(
+        states, states, LATTICE, EndStateTrainSettings(widths=(4, 8), steps=2, batch_size=2, threads=1), tmp_path / "a"
+    )
+    headed = EndStateModel(plain.lattice, plain.normalization, plain.widths, moved_head=True)
+    headed.load_state_dict(training.started_weights(plain, headed))
+    inputs = examples(plain, states).inputs
+    with torch.no_grad():
+        out, before = headed(inputs), plain(inputs)
+    torch.testing.assert_close(out[:, :2], before, rtol=0, atol=0)
+    assert (out[:, 2] == 0).all()
+    term = training.ThresholdTerm.of(EndStateTrainSettings(threshold_weight=1.0), 1.0)
+    predicted = torch.tensor([0.1, 0.0, 5.0]).reshape(1, 3, 1, 1).requires_grad_()
+    term(predicted, torch.tensor([2.0, 0.0]).reshape(1, 2, 1, 1), torch.ones(1, 1, 1, 1)).backward()
+    assert predicted.grad[0, 0] == 0 and predicted.grad[0, 2] < 0  # a moved point: its logit pushed up
+    headed.save(tmp_path / "headed.pt")
+    loaded = load_model(tmp_path / "headed.pt")
+    assert loaded.moved_head and loaded.threshold_m == 1.0
+    with pytest.raises(ValueError, match="threshold_weight"):
+        train(states, states, LATTICE, EndStateTrainSettings(widths=(4, 8), steps=1, moved_head=True), tmp_path / "b")

@@ -33,12 +33,26 @@ class Normalization:
 
 
 class EndStateModel(torch.nn.Module):
-    """Initial points and their friction angles in, final points out."""
+    """Initial points and their friction angles in, final points out.
 
-    def __init__(self, lattice: Lattice, normalization: Normalization, widths: tuple[int, ...] = (16, 32, 64, 96)):
+    With ``moved_head`` the network writes a third channel, each point's logit of "moved by at least the
+    displacement threshold" (trained as a classifier, rgns.surrogates.endstate.train.ThresholdTerm), and
+    :meth:`predict` puts each point's displacement on that side of the threshold: the head decides where the moved
+    zone ends (what V and I count), the regression how far the material goes (R).
+    """
+
+    def __init__(
+        self,
+        lattice: Lattice,
+        normalization: Normalization,
+        widths: tuple[int, ...] = (16, 32, 64, 96),
+        moved_head: bool = False,
+        threshold_m: float = 1.0,
+    ):
         super().__init__()
         self.lattice, self.normalization, self.widths = lattice, normalization, tuple(widths)
-        self.network = UNet(INPUT_CHANNELS, 2, self.widths)
+        self.moved_head, self.threshold_m = moved_head, threshold_m
+        self.network = UNet(INPUT_CHANNELS, 3 if moved_head else 2, self.widths)
 
     def inputs(self, positions: np.ndarray, friction_deg: np.ndarray) -> np.ndarray:
         n = self.normalization
@@ -59,21 +73,38 @@ class EndStateModel(torch.nn.Module):
         # channels last: oneDNN's own layout, a fifth faster on the CPU (benchmarks/bench_endstate_layout.py)
         self.network.to(memory_format=torch.channels_last)
         out = self(images.contiguous(memory_format=torch.channels_last)).cpu().numpy()
-        out = out * self.normalization.displacement_scale_m
-        return [
-            (np.asarray(p, dtype=float) + self.lattice.gather(image, p)).astype(np.float32)
-            for p, image in zip(initials, out)
-        ]
+        finals = []
+        for p, image in zip(initials, out):
+            values = self.lattice.gather(image, p)
+            displacement = values[:, :2] * self.normalization.displacement_scale_m
+            if self.moved_head:
+                displacement = on_side(displacement, values[:, 2] > 0, self.threshold_m)
+            finals.append((np.asarray(p, dtype=float) + displacement).astype(np.float32))
+        return finals
 
     def save(self, path: str | Path, extra: dict | None = None) -> None:
         state = {
             "lattice": asdict(self.lattice),
             "normalization": asdict(self.normalization),
             "widths": self.widths,
+            "moved_head": self.moved_head,
+            "threshold_m": self.threshold_m,
             "weights": self.state_dict(),
         } | (extra or {})
         with atomic_path(path) as partial:
             torch.save(state, partial)
+
+
+def on_side(displacement: np.ndarray, moved: np.ndarray, threshold_m: float, margin: float = 1e-3) -> np.ndarray:
+    """Each displacement [N, 2] scaled along itself to just past ``threshold_m`` where ``moved`` says moved and it is
+    shorter, to just short of it where ``moved`` says not and it is longer; a moved point with no direction moves
+    down."""
+    length = np.linalg.norm(displacement, axis=1)
+    direction = np.where(length[:, None] > 0, displacement / np.maximum(length, 1e-30)[:, None], [0.0, -1.0])
+    target = np.where(
+        moved, np.maximum(length, threshold_m * (1 + margin)), np.minimum(length, threshold_m * (1 - margin))
+    )
+    return direction * target[:, None]
 
 
 def load_model(path: str | Path, device: str = "cpu") -> EndStateModel:
@@ -81,7 +112,11 @@ def load_model(path: str | Path, device: str = "cpu") -> EndStateModel:
     try:
         state = torch.load(path, map_location=device, weights_only=False)
         model = EndStateModel(
-            Lattice(**state["lattice"]), Normalization(**state["normalization"]), tuple(state["widths"])
+            Lattice(**state["lattice"]),
+            Normalization(**state["normalization"]),
+            tuple(state["widths"]),
+            state.get("moved_head", False),  # files saved before the head lack it
+            state.get("threshold_m", 1.0),
         )
         model.load_state_dict(state["weights"])
     except (OSError, RuntimeError, KeyError, TypeError, EOFError, ValueError, pickle.UnpicklingError) as error:

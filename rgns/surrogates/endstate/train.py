@@ -51,6 +51,7 @@ class EndStateTrainSettings:
     threshold_weight: float = 0.0  # weight of the moved / not-moved term (0: mean squared error only)
     threshold_m: float = 1.0  # metrics.displacement_threshold_m
     threshold_width_m: float = 0.1  # width of the soft step at the threshold
+    moved_head: bool = False  # a third output channel, the moved logit, takes the threshold term (EndStateModel)
 
 
 @dataclass
@@ -108,9 +109,15 @@ class ThresholdTerm:
         )
 
     def __call__(self, predicted: torch.Tensor, targets: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        """On the moved head's logit where the model has one (a third channel), else on a soft step of the
+        predicted displacement's length."""
         moved = (targets.norm(dim=1, keepdim=True) >= self.threshold).float()
-        length = torch.sqrt((predicted**2).sum(dim=1, keepdim=True) + 1e-12)
-        entropy = F.binary_cross_entropy_with_logits((length - self.threshold) / self.width, moved, reduction="none")
+        if predicted.shape[1] > 2:
+            logits = predicted[:, 2:3]
+        else:
+            length = torch.sqrt((predicted**2).sum(dim=1, keepdim=True) + 1e-12)
+            logits = (length - self.threshold) / self.width
+        entropy = F.binary_cross_entropy_with_logits(logits, moved, reduction="none")
         return self.weight * (entropy * mask).sum() / mask.sum()
 
 
@@ -119,7 +126,7 @@ def masked_loss(model: EndStateModel, batch: Examples, threshold: ThresholdTerm 
     threshold term if given."""
     mask = batch.mask
     predicted = model(batch.inputs)
-    loss = ((predicted - batch.targets) ** 2 * mask).sum() / (2 * mask.sum())
+    loss = ((predicted[:, :2] - batch.targets) ** 2 * mask).sum() / (2 * mask.sum())
     return loss if threshold is None else loss + threshold(predicted, batch.targets, mask)
 
 
@@ -153,20 +160,44 @@ def training_step(
     return loss.item()
 
 
+def started_weights(start: EndStateModel, model: EndStateModel) -> dict[str, torch.Tensor]:
+    """``start``'s weights for ``model``: a moved head ``start`` lacks starts at zero (every logit 0), the
+    displacement channels as ``start``'s."""
+    weights = start.state_dict()
+    for name, value in model.state_dict().items():
+        if value.shape != weights[name].shape:  # the head's output channels
+            grown = torch.zeros_like(value)
+            grown[: weights[name].shape[0]] = weights[name]
+            weights[name] = grown
+    return weights
+
+
 def train(
     states: list[EndState],
     held_out: list[EndState],
     lattice: Lattice,
     settings: EndStateTrainSettings,
     out_dir: str | Path,
+    start: EndStateModel | None = None,
 ) -> tuple[EndStateModel, list[dict]]:
-    """Train (or resume from ``out_dir``'s checkpoint) and return the model and its history."""
+    """Train (or resume from ``out_dir``'s checkpoint) and return the model and its history; from ``start``'s weights
+    and normalisation (fine-tuning a trained model, on its lattice) if given, else from scratch."""
     torch.set_num_threads(settings.threads)
     torch.manual_seed(settings.seed)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     device = torch.device(settings.device)
-    model = EndStateModel(lattice, normalization_of(states), settings.widths)
+    if settings.moved_head and settings.threshold_weight <= 0:
+        raise ValueError("endstate.moved_head needs endstate.threshold_weight > 0: the head learns from that term")
+    if start is None:
+        model = EndStateModel(
+            lattice, normalization_of(states), settings.widths, settings.moved_head, settings.threshold_m
+        )
+    else:
+        model = EndStateModel(
+            start.lattice, start.normalization, start.widths, settings.moved_head, settings.threshold_m
+        )
+        model.load_state_dict(started_weights(start, model))
     data, valid = examples(model, states).to(device), examples(model, held_out).to(device)
     model.to(device)
     threshold = ThresholdTerm.of(settings, model.normalization.displacement_scale_m)
