@@ -118,7 +118,12 @@ if config["gns"]["model"] != "shipped":
             "results/model/card.md",
 
 
-if config["endstate"]["model"] == "train":
+ENDSTATE_START = {"model": os.path.join(SHIPPED_ENDSTATE, "endstate_general.pt"),
+                  "card": os.path.join(SHIPPED_ENDSTATE, "endstate_general_card.json")}
+
+if config["endstate"]["model"] in ("train", "finetune"):
+    # finetune: training starts from the shipped general model (and its card names it)
+    start = ENDSTATE_START if config["endstate"]["model"] == "finetune" else {}
 
     rule endstate_data:
         """One chunk of a test case's training realizations (drawn from endstate.data_seed), run by
@@ -138,9 +143,10 @@ if config["endstate"]["model"] == "train":
 
     rule train_endstate:
         """Train the end-state surrogate on every test case's training chunks (resumes from
-        results/model/endstate_checkpoints after a kill)."""
+        results/model/endstate_checkpoints after a kill); endstate.model finetune starts from the shipped model."""
         input:
-            expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=ENDSTATE_SETS, chunk=endstate_chunk_ids()),
+            data=expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=ENDSTATE_SETS, chunk=endstate_chunk_ids()),
+            start=start.get("model", []),
         output:
             model="results/model/endstate.pt",
             history="results/model/endstate_history.csv",
@@ -206,6 +212,7 @@ if config["endstate"]["model"] == "train":
         input:
             data=expand("results/endstate/data/{case}/chunk_{chunk}.h5", case=ENDSTATE_SETS, chunk=endstate_chunk_ids()),
             history="results/model/endstate_history.csv",
+            start=list(start.values()),
             validation="results/model/endstate_ood.md" if ENDSTATE_VALIDATION_SETS else "results/report/validation/table.md",
         output:
             card="results/model/endstate_card.json",

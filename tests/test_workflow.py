@@ -542,3 +542,21 @@ def test_the_end_state_surrogate_trains_validates_and_runs_the_monte_carlo(built
     assert card["features"] == "body" and card["bounds"] == {"domain.length_m": 40.0, "domain.height_m": 10.0}
     assert card["ranges"]["field"]["friction_std_deg"] == [5.0, 5.0]
     assert "Validation on slopes and soils it never saw" in (results / "model" / "endstate_card.md").read_text()
+
+
+def test_the_shipped_end_state_model_is_fine_tuned_from_the_first_stage_on_all_its_sets(tmp_path):
+    """config/pretrain_general_wide.yaml after config/pretrain_general.yaml: the 45 sets' training runs, one training
+    that starts from the shipped model, and a card that reads the shipped card."""
+    dry_run = snakemake(
+        tmp_path,
+        "-n",
+        "pretrain_endstate",
+        "--configfile",
+        str(REPO / "config" / "pretrain_general.yaml"),
+        str(REPO / "config" / "pretrain_general_wide.yaml"),
+    )
+    assert dry_run.returncode == 0, dry_run.stderr[-3000:]
+    jobs = scheduled(dry_run)
+    assert jobs["endstate_data"] == 45 * 2 and jobs["train_endstate"] == jobs["endstate_card"] == 1
+    train_job = dry_run.stdout.split("rule train_endstate:")[1].split("rule ")[0]
+    assert "rgns/models/endstate_general.pt" in train_job

@@ -4,6 +4,7 @@ refuses, and its agreement with fresh MPM runs of slopes it never trained on, ev
 from __future__ import annotations
 
 import copy
+import hashlib
 
 import numpy as np
 import pytest
@@ -12,8 +13,17 @@ from conftest import REPO
 
 from rgns.config import load_config
 from rgns.montecarlo.runs import RunSettings, run_realizations
+from rgns.scene.geometry import seed_particles
 from rgns.scene.realizations import CaseInputs, Realization, draw_realization
-from rgns.surrogates.endstate.card import check_serves, distribution_of, outside_ranges
+from rgns.surrogates.endstate.card import (
+    check_serves,
+    distribution_of,
+    make_card,
+    outside_ranges,
+    render_card,
+    started_from,
+)
+from rgns.surrogates.endstate.data import EndState, write_end_states
 from rgns.surrogates.endstate.model import load_model
 from rgns.surrogates.shipped import MODELS, ShippedModelError, read_card
 from rgns.surrogates.validation import r_squared
@@ -157,3 +167,20 @@ def test_two_monte_carlo_runs_with_it_give_identical_tables(general):
         inputs, list(range(16)), _settings(DEFAULT, "endstate"), load_model(MODELS / "endstate_general.pt")
     )
     assert first.equals(again)
+
+
+def test_a_fine_tuned_card_names_the_model_it_started_from_and_both_stages(tmp_path):
+    """The card of a model fine-tuned from the shipped one records that file's SHA-256 and its training, and says
+    how both stages were run."""
+    start = started_from(MODELS / "endstate_general.pt", MODELS / "endstate_general_card.json")
+    assert start["sha256"] == hashlib.sha256((MODELS / "endstate_general.pt").read_bytes()).hexdigest()
+    assert start["steps"] == CARD["steps"] and start["sets"] == len(CARD["cases"])
+    initial, volume = seed_particles(np.array([[0.0, 0.0], [12.0, 0.0], [6.0, 5.0], [0.0, 5.0]]), 1.0, 2)
+    data = tmp_path / "chunk_000.h5"
+    write_end_states(data, [EndState("case1", 0, initial, initial, np.full(len(initial), 30.0), volume)], ["ok"])
+    history = [{"step": 10, "elapsed_s": 60.0, "valid_loss": 0.003, "valid_mean_predictor_loss": 0.45}]
+    card = make_card(CARD["config"], [str(data)], history, ["case1"], start)
+    text = render_card(card, "| validation |")
+    assert card["started_from"] == start
+    assert "config/pretrain_general.yaml config/pretrain_general_wide.yaml" in text
+    assert f"fine-tuned from a model (SHA-256 `{start['sha256'][:16]}…`) trained {start['steps']} steps" in text

@@ -121,10 +121,29 @@ def evaluation_of(history: list[dict[str, Any]], shipped: bool = False) -> dict[
     }
 
 
+def started_from(model_path: str | Path, card_path: str | Path) -> dict[str, Any]:
+    """What a fine-tuned model started from: the model file's SHA-256 and its own training, from its card."""
+    card = json.loads(Path(card_path).read_text())
+    return {
+        "sha256": data_fingerprint([model_path]),
+        "steps": card["steps"],
+        "wall_s": card["wall_s"],
+        "hardware": _hardware(card["config"]),
+        "sets": len(card["cases"]),
+        "data_seed": card["config"]["endstate"]["data_seed"],
+        "started_from": card.get("started_from"),
+    }
+
+
 def make_card(
-    config: dict[str, Any], data_paths: list[str], history: list[dict[str, Any]], cases: list[str]
+    config: dict[str, Any],
+    data_paths: list[str],
+    history: list[dict[str, Any]],
+    cases: list[str],
+    start: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The card of a trained model: what it was trained on and how, and what it serves."""
+    """The card of a trained model: what it was trained on and how (``start``: what it was fine-tuned from,
+    :func:`started_from`), and what it serves."""
     section = config["endstate"]
     evaluation = evaluation_of(history, shipped=True)
     features = section.get("features", "domain")
@@ -140,6 +159,8 @@ def make_card(
         "features": features,
         "serves": served(config, features),
     }
+    if start is not None:
+        card["started_from"] = start
     if features == "body":
         card["bounds"] = tied_values(config, DOMAIN_KEYS)
         card["ranges"] = training_ranges(config, cases) | {"body_height_m": body_heights(config, cases, data_paths)}
@@ -250,6 +271,30 @@ def _hardware(config: dict[str, Any]) -> str:
     return f"training on {device}, the data's MPM batches on {config['mpm']['embedded']['device']}"
 
 
+def _produced_lines(card: dict[str, Any]) -> list[str]:
+    """How the pipeline made the model: one run, or a first model then its fine-tuning."""
+    command = "snakemake --cores 2 --configfile config/pretrain_general.yaml{} --directory work/pretrain_general "
+    if "started_from" not in card:
+        return [f'Produced by the pipeline: `{command.format("")}pretrain_endstate` (docs: "The end-state surrogate").']
+    return [
+        f"Produced by the pipeline in two stages: `{command.format('')}pretrain_endstate` trains a first model, then "
+        f"`{command.format(' config/pretrain_general_wide.yaml')}pretrain_endstate` fine-tunes it "
+        '(`endstate.model: finetune`; docs: "The end-state surrogate").'
+    ]
+
+
+def _start_lines(card: dict[str, Any]) -> list[str]:
+    """The training bullet of the model a fine-tuned one started from."""
+    start = card.get("started_from")
+    if start is None:
+        return []
+    return [
+        f"* fine-tuned from a model (SHA-256 `{start['sha256'][:16]}…`) trained {start['steps']} steps in "
+        f"{start['wall_s'] / 60:.1f} min ({start['hardware']}) on {start['sets']} sets drawn from seed "
+        f"{start['data_seed']}; then, on the data above:"
+    ]
+
+
 def render_card(
     card: dict[str, Any],
     validation_markdown: str,
@@ -261,8 +306,7 @@ def render_card(
     lines = [
         "# The shipped end-state surrogate: model card",
         "",
-        "Produced by the pipeline: `snakemake --cores 2 --configfile config/pretrain_general.yaml --directory "
-        'work/pretrain_general pretrain_endstate` (docs: "The end-state surrogate").',
+        *_produced_lines(card),
         "",
         "## What it serves",
         "",
@@ -273,6 +317,7 @@ def render_card(
         f"* data: {card['realizations_per_case']} realizations per {per} ({len(card['cases'])} sets) drawn from seed "
         f"{card['config']['endstate']['data_seed']} and run by the embedded MPM, plus {card['held_out_per_case']} "
         f"held out per {per}; SHA-256 `{card['data_fingerprint'][:16]}…`",
+        *_start_lines(card),
         f"* {card['steps']} steps in {card['wall_s'] / 60:.1f} min ({_hardware(card['config'])}); the last iterate "
         "is kept (one-cycle learning rate)",
         f"* held-out loss at the end {last['valid_loss']:.4g} against the mean predictor's "
