@@ -14,11 +14,21 @@ def general_training() -> str:
     record = card("endstate_general_card.json")
     sets = len(record["cases"])
     evaluation = record["evaluation"]
+    start = record.get("started_from")
+    where = "on the GPU" if record["config"]["endstate"].get("device", "cpu") != "cpu" else "on one CPU thread"
+    runs = (
+        f"{sets * record['realizations_per_case']:,} MPM runs (plus {sets * record['held_out_per_case']:,} held out; "
+        f"{record['realizations_per_case']} + {record['held_out_per_case']} per set of {sets}), "
+        f"{record['steps']:,} steps in {minutes(record['wall_s'])} {where}"
+    )
+    how = (
+        f"It was trained on {runs}"
+        if start is None
+        else f"A first model was trained {start['steps']:,} steps in {minutes(start['wall_s'])} ({start['hardware']}) "
+        f"on {start['sets']} sets, then fine-tuned on {runs}"
+    )
     return (
-        f"It was trained on {sets * record['realizations_per_case']:,} MPM runs (plus "
-        f"{sets * record['held_out_per_case']:,} held out; {record['realizations_per_case']} + "
-        f"{record['held_out_per_case']} per set of {sets}), {record['steps']:,} steps in {minutes(record['wall_s'])} "
-        f"on the GPU; its held-out loss ends at {evaluation['valid_loss']:.4f} against the mean predictor's "
+        f"{how}; its held-out loss ends at {evaluation['valid_loss']:.4f} against the mean predictor's "
         f"{evaluation['valid_mean_predictor_loss']:.3f} (`rgns/models/endstate_general_card.json`)."
     )
 
