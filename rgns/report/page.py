@@ -278,6 +278,10 @@ INFLUENCE_UNCONVERGED = (
     "no converged value under refinement: on finer meshes a few surface points lifted far behind the crest set it, "
     "and a smaller time step shortens it (docs/evidence.md)"
 )
+UNCONVERGED = {
+    "influence_m": INFLUENCE_UNCONVERGED,
+    "volume_m2": "no convergence order measured, and a smaller time step shrinks it (docs/evidence.md)",
+}
 
 
 def cautions(
@@ -293,7 +297,7 @@ def cautions(
     if "converged" in record:
         pairs = record["converged"]["n_pairs"]
         if mesh_step is None:
-            why = INFLUENCE_UNCONVERGED if key == "influence_m" else "no convergence order measured"
+            why = UNCONVERGED.get(key, "no convergence order measured")
             said.append(f"at {record['high_cell_size_m']:g} m cells: {why}")
         elif p is not None and float(p) <= TAIL_PROBABILITY:
             said.append(f"mesh step modelled from the cheap route's regressions: {TAIL_COVERAGE}")
