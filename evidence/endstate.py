@@ -163,7 +163,7 @@ def endstate_speed() -> str:
     return (
         f"{1000 * cost['model_s']:.1f} ms per realization against {cost['mpm_s']:.2f} s for the 1 m MPM "
         f"({cost['ratio']:.0f}× faster; {cost['realizations']} {cost['case'].replace('case', 'case-')} realizations, "
-        f"one thread each, side by side; `{record['command']}`, committed in {record['committed_in']})."
+        f"one thread each, side by side; `{record['command']}`, {made_note(record)})."
     )
 
 
