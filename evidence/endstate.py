@@ -85,7 +85,7 @@ OOD_SETS = {
     "ood_bench": "benched slope",
     "ood_concave": "concave slope",
     "hillside": "DEM section (`config/site.yaml`)",
-    "ood_field": "a field model outside the training draws",
+    "ood_field": "a field model no training set draws (inside the widened ranges)",
 }
 
 
@@ -131,7 +131,7 @@ def ood_table() -> str:
 
 
 # docs/surrogates.md's notes on the out-of-distribution sets' names
-OOD_NOTES = {"hillside": " (DEM section)", "ood_field": " (field outside training)"}
+OOD_NOTES = {"hillside": " (DEM section)", "ood_field": " (field no set draws)"}
 
 
 def ood_bias_table() -> str:
