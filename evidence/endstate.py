@@ -85,7 +85,7 @@ OOD_SETS = {
     "ood_bench": "benched slope",
     "ood_concave": "concave slope",
     "hillside": "DEM section (`config/site.yaml`)",
-    "ood_field": "a field model no training set draws (inside the widened ranges)",
+    "ood_field": "a field model outside the training draws",
 }
 
 
@@ -131,7 +131,7 @@ def ood_table() -> str:
 
 
 # docs/surrogates.md's notes on the out-of-distribution sets' names
-OOD_NOTES = {"hillside": " (DEM section)", "ood_field": " (field no set draws)"}
+OOD_NOTES = {"hillside": " (DEM section)", "ood_field": " (field outside training)"}
 
 
 def ood_bias_table() -> str:
@@ -163,7 +163,7 @@ def endstate_speed() -> str:
     return (
         f"{1000 * cost['model_s']:.1f} ms per realization against {cost['mpm_s']:.2f} s for the 1 m MPM "
         f"({cost['ratio']:.0f}× faster; {cost['realizations']} {cost['case'].replace('case', 'case-')} realizations, "
-        f"one thread each, side by side; `{record['command']}`, {made_note(record)})."
+        f"one thread each, side by side; `{record['command']}`, committed in {record['committed_in']})."
     )
 
 
