@@ -31,8 +31,8 @@ from rgns.config import load_config
 from rgns.engines.metrics import MetricSettings
 from rgns.provenance import commit
 from rgns.scene.realizations import CaseInputs
-from rgns.surrogates.endstate.data import read_end_states, simulate_end_states, write_end_states
-from rgns.surrogates.endstate.evaluate import agreement_rows, markdown_table, paired_finals, paired_metrics
+from rgns.surrogates.endstate.data import EndState, read_end_states, simulate_end_states, write_end_states
+from rgns.surrogates.endstate.evaluate import agreement_of, markdown_table, paired_finals, paired_metrics
 from rgns.surrogates.endstate.model import load_model
 from rgns.surrogates.validation import METRICS, r2_difference
 from rgns.trajectories import frame_count
@@ -40,24 +40,29 @@ from rgns.trajectories import frame_count
 REPO = Path(__file__).resolve().parent.parent
 
 
+def seeded(config: dict) -> dict:
+    """The config drawing its sets from endstate.validation.data_seed."""
+    return config | {"seed": config["endstate"]["validation"]["data_seed"]}
+
+
+def set_states(data: Path, name: str, realizations: int | None = None) -> list[EndState]:
+    """A set's end states in ``data`` (its first ``realizations``; None: all)."""
+    states = read_end_states(sorted((data / name).glob("chunk_*.h5")))
+    return [s for s in states if realizations is None or s.index < realizations]
+
+
 def pairs(model_path: str, config: dict, data: Path, sets: list[str], realizations: int) -> dict[str, pd.DataFrame]:
     """Per set, R, V and I of each realization by the MPM and by a model (the first ``realizations`` of each)."""
-    seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
     model = load_model(model_path)
     return {
         name: paired_metrics(
             model,
-            [s for s in read_end_states(sorted((data / name).glob("chunk_*.h5"))) if s.index < realizations],
-            CaseInputs.from_config(seeded, name),
+            set_states(data, name, realizations),
+            CaseInputs.from_config(seeded(config), name),
             MetricSettings(**config["metrics"]),
         )
         for name in sets
     }
-
-
-def agreement(paired: dict[str, pd.DataFrame]) -> pd.DataFrame:
-    """The agreement rows of every set."""
-    return pd.DataFrame([row for table in paired.values() for row in agreement_rows(table)])
 
 
 def differences(new: dict[str, pd.DataFrame], old: dict[str, pd.DataFrame]) -> pd.DataFrame:
@@ -81,10 +86,9 @@ def differences(new: dict[str, pd.DataFrame], old: dict[str, pd.DataFrame]) -> p
 def simulate_missing(config: dict, data: Path, sets: list[str], realizations: int, chunk: int = 16) -> None:
     """The MPM end states of every set's first ``realizations`` that ``data`` lacks, written there in chunks as
     the pipeline's rule endstate_validation_data writes them (a re-run reuses them)."""
-    seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
     frames = frame_count(config["mpm"]["duration_s"], config["mpm"]["frame_interval_s"])
     for name in sets:
-        inputs = CaseInputs.from_config(seeded, name)
+        inputs = CaseInputs.from_config(seeded(config), name)
         for k, first in enumerate(range(0, realizations, chunk)):
             path = data / name / f"chunk_{k:03d}.h5"
             if path.exists():
@@ -106,27 +110,23 @@ def mpm_floor(config: dict, data: Path, sets: list[str], realizations: int, cfl:
     other["mpm"]["embedded"]["cfl"] = cfl
     again_data = data.with_name(f"{data.name}_cfl{cfl:g}")
     simulate_missing(other, again_data, sets, realizations)
-    seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
-    rows = []
+    paired = {}
     for name in sets:
-        states = [s for s in read_end_states(sorted((data / name).glob("chunk_*.h5"))) if s.index < realizations]
-        again = {s.index: s.final for s in read_end_states(sorted((again_data / name).glob("chunk_*.h5")))}
-        both = [s for s in states if s.index in again]
-        pairs = paired_finals(
+        again = {s.index: s.final for s in set_states(again_data, name)}
+        both = [s for s in set_states(data, name, realizations) if s.index in again]
+        paired[name] = paired_finals(
             both,
             [again[s.index] for s in both],
-            CaseInputs.from_config(seeded, name),
+            CaseInputs.from_config(seeded(config), name),
             MetricSettings(**config["metrics"]),
         )
-        rows += agreement_rows(pairs)
-    return pd.DataFrame(rows)
+    return agreement_of(paired)
 
 
 def cost_per_realization(model_path: str, config: dict, case: str, count: int) -> dict[str, float]:
     """Seconds per realization on one thread: the MPM's run and the model's prediction, same slopes."""
     torch.set_num_threads(1)
-    seeded = config | {"seed": config["endstate"]["validation"]["data_seed"]}
-    inputs = CaseInputs.from_config(seeded, case)
+    inputs = CaseInputs.from_config(seeded(config), case)
     began = time.perf_counter()
     states, _ = simulate_end_states(
         inputs,
@@ -186,7 +186,7 @@ def main() -> None:
     paired = {"model": pairs(args.model, config, Path(args.data), sets, args.realizations)}
     if args.compare:
         paired["compare"] = pairs(args.compare, config, Path(args.data), sets, args.realizations)
-    tables = {name: agreement(table) for name, table in paired.items()}
+    tables = {name: agreement_of(table) for name, table in paired.items()}
     if args.compare:
         tables["difference"] = differences(paired["model"], paired["compare"])
     if args.mpm_floor:

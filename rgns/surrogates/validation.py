@@ -82,6 +82,13 @@ def _nrmse_along(mpm: np.ndarray, gns: np.ndarray, axis: int = -1) -> np.ndarray
 PAIRED_STATISTICS = {"r2": _r2_along, "nrmse": _nrmse_along}
 
 
+def _percentile_interval(values: np.ndarray, confidence: float) -> tuple[float, float]:
+    """The central ``confidence`` percentile interval of bootstrap ``values``."""
+    tail_pct = 50.0 * (1.0 - confidence)
+    low, high = np.percentile(values, [tail_pct, 100.0 - tail_pct])
+    return float(low), float(high)
+
+
 def paired_interval(
     statistic: str, mpm: np.ndarray, gns: np.ndarray, bootstrap: int = 2000, confidence: float = 0.95, seed: int = 0
 ) -> tuple[float, float]:
@@ -97,9 +104,7 @@ def paired_interval(
     values = values[np.isfinite(values)]
     if values.size < bootstrap / 2:
         return math.nan, math.nan
-    tail_pct = 50.0 * (1.0 - confidence)
-    low, high = np.percentile(values, [tail_pct, 100.0 - tail_pct])
-    return float(low), float(high)
+    return _percentile_interval(values, confidence)
 
 
 def r2_difference(
@@ -118,10 +123,7 @@ def r2_difference(
         return difference, math.nan, math.nan
     pick = np.random.default_rng(seed).integers(0, mpm.size, size=(bootstrap, mpm.size))
     values = _r2_along(mpm[pick], first[pick]) - _r2_along(mpm[pick], second[pick])
-    values = values[np.isfinite(values)]
-    tail_pct = 50.0 * (1.0 - confidence)
-    low, high = np.percentile(values, [tail_pct, 100.0 - tail_pct])
-    return difference, float(low), float(high)
+    return difference, *_percentile_interval(values[np.isfinite(values)], confidence)
 
 
 def bootstrap_mean_interval(values: np.ndarray, bootstrap: int, confidence: float, seed: int) -> tuple[float, float]:
@@ -131,9 +133,7 @@ def bootstrap_mean_interval(values: np.ndarray, bootstrap: int, confidence: floa
         return math.nan, math.nan
     rng = np.random.default_rng(seed)
     means = values[rng.integers(0, values.size, size=(bootstrap, values.size))].mean(axis=1)
-    tail_pct = 50.0 * (1.0 - confidence)
-    low, high = np.percentile(means, [tail_pct, 100.0 - tail_pct])
-    return float(low), float(high)
+    return _percentile_interval(means, confidence)
 
 
 def agreement(

@@ -115,16 +115,17 @@ def agreement_rows(
     return rows
 
 
+def agreement_of(paired: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """The agreement rows of every set, from its per-realization pairs (:func:`paired_metrics`, :func:`paired_finals`)."""
+    return pd.DataFrame([row for table in paired.values() for row in agreement_rows(table)])
+
+
 def agreement_table(
     model: EndStateModel, sets: dict[str, tuple[list[EndState], CaseInputs]], metrics: MetricSettings
 ) -> pd.DataFrame:
     """The agreement rows of every set: its end states and the inputs they were drawn from."""
-    return pd.DataFrame(
-        [
-            row
-            for states, inputs in sets.values()
-            for row in agreement_rows(paired_metrics(model, states, inputs, metrics))
-        ]
+    return agreement_of(
+        {name: paired_metrics(model, states, inputs, metrics) for name, (states, inputs) in sets.items()}
     )
 
 

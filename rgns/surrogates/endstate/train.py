@@ -189,14 +189,13 @@ def train(
     device = torch.device(settings.device)
     if settings.moved_head and settings.threshold_weight <= 0:
         raise ValueError("endstate.moved_head needs endstate.threshold_weight > 0: the head learns from that term")
-    if start is None:
-        model = EndStateModel(
-            lattice, normalization_of(states), settings.widths, settings.moved_head, settings.threshold_m
-        )
-    else:
-        model = EndStateModel(
-            start.lattice, start.normalization, start.widths, settings.moved_head, settings.threshold_m
-        )
+    lattice, normalization, widths = (
+        (lattice, normalization_of(states), settings.widths)
+        if start is None
+        else (start.lattice, start.normalization, start.widths)
+    )
+    model = EndStateModel(lattice, normalization, widths, settings.moved_head, settings.threshold_m)
+    if start is not None:
         model.load_state_dict(started_weights(start, model))
     data, valid = examples(model, states).to(device), examples(model, held_out).to(device)
     model.to(device)
