@@ -66,45 +66,50 @@ def _finite_or_zero(a: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _factors(x, y, p0, p1, grid, spline, base, factors, box):
-    """Each of particles p0..p1's first DOF and the 1-D factors of its weights (shape.py's bases; ``grid`` as
-    :func:`advance_frame`'s): rows 0-2 wx, 3-5 ∂wx, 6-8 wy, 9-11 ∂wy along its DOFs' columns and rows (a slot's
-    weight is wy·wx, its gradient (wy·∂wx, ∂wy·wx) / h: the products the torch basis forms, made where they are
-    used); ``box``: the first and last column and row of the DOFs they reach; returns how many lie outside the region."""
+def _factor_loop(x, y, grid, base, factors, box, spline, exact):
+    """:func:`_factors` for one basis (``spline``) and one way to scale by 1 / h (``exact``: multiply), both
+    literals at each call, so that the loop holds no branch and vectorises."""
     origin_x, origin_y, h, lower_x, lower_y = grid[0], grid[1], grid[2], grid[3], grid[4]
     nx, ny, mesh_nx, mesh_ny, inverse_h = int(grid[5]), int(grid[6]), int(grid[7]), int(grid[8]), grid[9]
+    span = 2 if spline else 1  # the DOFs a particle reaches past its first, along each axis
+    row = nx + 2 if spline else mesh_nx + 1
+    wx0, wx1, wx2, dx0, dx1, dx2 = factors[0], factors[1], factors[2], factors[3], factors[4], factors[5]
+    wy0, wy1, wy2, dy0, dy1, dy2 = factors[6], factors[7], factors[8], factors[9], factors[10], factors[11]
     outside = 0
     i_low, i_high, j_low, j_high = 1 << 30, -1, 1 << 30, -1
-    for p in range(p0, p1):
-        q = p - p0
-        u = _per_h(x[p] - origin_x, h, inverse_h) - lower_x
-        v = _per_h(y[p] - origin_y, h, inverse_h) - lower_y
-        if not (u >= 0.0 and u <= nx and v >= 0.0 and v <= ny):
-            outside += 1
+    for q in range(len(x)):
+        u = ((x[q] - origin_x) * inverse_h if exact else (x[q] - origin_x) / h) - lower_x
+        v = ((y[q] - origin_y) * inverse_h if exact else (y[q] - origin_y) / h) - lower_y
+        outside += 1 - ((u >= 0.0) & (u <= nx) & (v >= 0.0) & (v <= ny))
         u = _finite_or_zero(u)
         v = _finite_or_zero(v)
         if spline:
-            wx0, wx1, wx2, dx0, dx1, dx2, i = _quadratic(u, nx)
-            wy0, wy1, wy2, dy0, dy1, dy2, j = _quadratic(v, ny)
-            i_low, i_high, j_low, j_high = min(i_low, i), max(i_high, i + 2), min(j_low, j), max(j_high, j + 2)
-            base[q] = j * (nx + 2) + i
-            factors[2, q], factors[5, q], factors[8, q], factors[11, q] = wx2, dx2, wy2, dy2
-        else:  # the cell's 4 nodes: the weights (1 - ξ, ξ) and their derivatives (-1, 1) along each axis
-            u = u + lower_x
-            v = v + lower_y
-            ci = _clamp(np.floor(u), 0.0, mesh_nx - 1.0)
-            cj = _clamp(np.floor(v), 0.0, mesh_ny - 1.0)
-            xi = _clamp(u - ci, 0.0, 1.0)
-            eta = _clamp(v - cj, 0.0, 1.0)
-            i, j = int(ci), int(cj)
-            i_low, i_high, j_low, j_high = min(i_low, i), max(i_high, i + 1), min(j_low, j), max(j_high, j + 1)
-            base[q] = j * (mesh_nx + 1) + i
-            wx0, wx1, dx0, dx1 = 1 - xi, xi, -1.0, 1.0
-            wy0, wy1, dy0, dy1 = 1 - eta, eta, -1.0, 1.0
-        factors[0, q], factors[1, q], factors[3, q], factors[4, q] = wx0, wx1, dx0, dx1
-        factors[6, q], factors[7, q], factors[9, q], factors[10, q] = wy0, wy1, dy0, dy1
+            wx0[q], wx1[q], wx2[q], dx0[q], dx1[q], dx2[q], ci = _quadratic(u, nx)
+            wy0[q], wy1[q], wy2[q], dy0[q], dy1[q], dy2[q], cj = _quadratic(v, ny)
+        else:  # the cell's 2 nodes along each axis, in cells from the mesh origin
+            wx0[q], wx1[q], dx0[q], dx1[q], ci = _linear(u + lower_x, mesh_nx)
+            wy0[q], wy1[q], dy0[q], dy1[q], cj = _linear(v + lower_y, mesh_ny)
+        i, j = int(ci), int(cj)
+        i_low, i_high, j_low, j_high = min(i_low, i), max(i_high, i + span), min(j_low, j), max(j_high, j + span)
+        base[q] = j * row + i
     box[0], box[1], box[2], box[3] = i_low, i_high, j_low, j_high
     return outside
+
+
+@njit(cache=True, inline="always")
+def _factors(x, y, grid, spline, base, factors, box):
+    """Each particle's first DOF and the 1-D factors of its weights (shape.py's bases; ``grid`` as
+    :func:`advance_frame`'s; ``x``, ``y`` one realization's): rows 0-2 wx, 3-5 ∂wx, 6-8 wy, 9-11 ∂wy along its
+    DOFs' columns and rows (the bilinear cell uses rows 0-1, 3-4, 6-7, 9-10; a slot's weight is wy·wx, its gradient
+    (wy·∂wx, ∂wy·wx) / h: the products the torch basis forms, made where they are used); ``box``: the first and last
+    column and row of the DOFs they reach; returns how many lie outside the region."""
+    if grid[9] != 0.0:
+        if spline:
+            return _factor_loop(x, y, grid, base, factors, box, True, True)
+        return _factor_loop(x, y, grid, base, factors, box, False, True)
+    if spline:
+        return _factor_loop(x, y, grid, base, factors, box, True, False)
+    return _factor_loop(x, y, grid, base, factors, box, False, False)
 
 
 @njit(cache=True, inline="always")
@@ -178,22 +183,34 @@ def _force_scatter(r, c, row, base, factors, h, inverse_h, stress, count, gravit
 
 @njit(cache=True, inline="always")
 def _quadratic(t, n):
-    """shape.clamped_quadratic_1d at one point: weights, derivatives of DOFs c, c + 1, c + 2, and c."""
+    """shape.clamped_quadratic_1d at one point: weights, derivatives of DOFs c, c + 1, c + 2, and c. Every piece is
+    formed and one chosen (selects, not branches), the same products as the torch basis."""
     c = _clamp(np.floor(t), 0.0, n - 1.0)
     s = _clamp(t - c, 0.0, 1.0)
     r = 1 - s
     first, last = c == 0, c == n - 1
-    w0 = r * r if first else 0.5 * r * r
-    d0 = -2 * r if first else -r
-    if first:
-        w1, d1 = 2 * s - 1.5 * s * s, 2 - 3 * s
-    elif last:
-        w1, d1 = 2 * r - 1.5 * r * r, 3 * r - 2
-    else:
-        w1, d1 = 0.5 + s - s * s, 1 - 2 * s
-    w2 = s * s if last else 0.5 * s * s
-    d2 = 2 * s if last else s
-    return w0, w1, w2, d0, d1, d2, int(c)
+    w0_first, w0_inner = r * r, 0.5 * r * r
+    d0_first, d0_inner = -2 * r, -r
+    w1_first, w1_last, w1_inner = 2 * s - 1.5 * s * s, 2 * r - 1.5 * r * r, 0.5 + s - s * s
+    d1_first, d1_last, d1_inner = 2 - 3 * s, 3 * r - 2, 1 - 2 * s
+    w2_last, w2_inner = s * s, 0.5 * s * s
+    d2_last, d2_inner = 2 * s, s
+    w0 = w0_first if first else w0_inner
+    d0 = d0_first if first else d0_inner
+    w1 = w1_first if first else (w1_last if last else w1_inner)
+    d1 = d1_first if first else (d1_last if last else d1_inner)
+    w2 = w2_last if last else w2_inner
+    d2 = d2_last if last else d2_inner
+    return w0, w1, w2, d0, d1, d2, c
+
+
+@njit(cache=True, inline="always")
+def _linear(t, n):
+    """LinearBasis along one axis at one point (t in cells from the mesh origin): weights and derivatives of
+    nodes c and c + 1, and c."""
+    c = _clamp(np.floor(t), 0.0, n - 1.0)
+    xi = _clamp(t - c, 0.0, 1.0)
+    return 1 - xi, xi, -1.0, 1.0, c
 
 
 @njit(cache=True, inline="always")
@@ -375,7 +392,7 @@ def advance_frame(
         count = p1 - p0
         dt = dts[b]
         for _ in range(substeps[b]):
-            outside[b] += _factors(x, y, p0, p1, grid, spline, base, factors, box)
+            outside[b] += _factors(x[p0:p1], y[p0:p1], grid, spline, base, factors, box)
             # p2g: nodal mass and momentum, slot by slot as torch's scatter_add_
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
