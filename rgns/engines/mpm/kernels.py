@@ -66,11 +66,11 @@ def _finite_or_zero(a: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _factor_loop(x, y, grid, base, factors, box, spline, exact):
-    """:func:`_factors` for one basis (``spline``) and one way to scale by 1 / h (``exact``: multiply), both
-    literals at each call, so that the loop holds no branch and vectorises."""
+def _factor_loop(x, y, grid, base, factors, box, spline):
+    """:func:`_factors` for one basis (``spline``, a literal at each call, so that the loop holds no branch and
+    vectorises; it divides by h as torch does: a vector division costs little here)."""
     origin_x, origin_y, h, lower_x, lower_y = grid[0], grid[1], grid[2], grid[3], grid[4]
-    nx, ny, mesh_nx, mesh_ny, inverse_h = int(grid[5]), int(grid[6]), int(grid[7]), int(grid[8]), grid[9]
+    nx, ny, mesh_nx, mesh_ny = int(grid[5]), int(grid[6]), int(grid[7]), int(grid[8])
     span = 2 if spline else 1  # the DOFs a particle reaches past its first, along each axis
     row = nx + 2 if spline else mesh_nx + 1
     wx0, wx1, wx2, dx0, dx1, dx2 = factors[0], factors[1], factors[2], factors[3], factors[4], factors[5]
@@ -78,8 +78,8 @@ def _factor_loop(x, y, grid, base, factors, box, spline, exact):
     outside = 0
     i_low, i_high, j_low, j_high = 1 << 30, -1, 1 << 30, -1
     for q in range(len(x)):
-        u = ((x[q] - origin_x) * inverse_h if exact else (x[q] - origin_x) / h) - lower_x
-        v = ((y[q] - origin_y) * inverse_h if exact else (y[q] - origin_y) / h) - lower_y
+        u = (x[q] - origin_x) / h - lower_x
+        v = (y[q] - origin_y) / h - lower_y
         outside += 1 - ((u >= 0.0) & (u <= nx) & (v >= 0.0) & (v <= ny))
         u = _finite_or_zero(u)
         v = _finite_or_zero(v)
@@ -96,20 +96,17 @@ def _factor_loop(x, y, grid, base, factors, box, spline, exact):
     return outside
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _factors(x, y, grid, spline, base, factors, box):
     """Each particle's first DOF and the 1-D factors of its weights (shape.py's bases; ``grid`` as
     :func:`advance_frame`'s; ``x``, ``y`` one realization's): rows 0-2 wx, 3-5 ∂wx, 6-8 wy, 9-11 ∂wy along its
     DOFs' columns and rows (the bilinear cell uses rows 0-1, 3-4, 6-7, 9-10; a slot's weight is wy·wx, its gradient
     (wy·∂wx, ∂wy·wx) / h: the products the torch basis forms, made where they are used); ``box``: the first and last
-    column and row of the DOFs they reach; returns how many lie outside the region."""
-    if grid[9] != 0.0:
-        if spline:
-            return _factor_loop(x, y, grid, base, factors, box, True, True)
-        return _factor_loop(x, y, grid, base, factors, box, False, True)
+    column and row of the DOFs they reach; returns how many lie outside the region. Compiled on its own (not
+    inlined), which keeps :func:`advance_frame`'s compile short."""
     if spline:
-        return _factor_loop(x, y, grid, base, factors, box, True, False)
-    return _factor_loop(x, y, grid, base, factors, box, False, False)
+        return _factor_loop(x, y, grid, base, factors, box, True)
+    return _factor_loop(x, y, grid, base, factors, box, False)
 
 
 @njit(cache=True, inline="always")
