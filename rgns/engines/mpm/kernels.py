@@ -240,22 +240,64 @@ def _principal_return(s1, s2, s3, k, sigma_c, lame_lambda, shear_modulus, m):
 
 
 @njit(cache=True, inline="always")
-def _stress_update(sxx, syy, szz, txy, dxx, dyy, dxy, shear_modulus, lame_lambda, k, m, sigma_c, tension_cutoff):
-    """elastic_increment and return_map of one particle: its new (σxx, σyy, σzz, τxy)."""
-    g = shear_modulus
+def _trial(sxx, syy, szz, txy, dxx, dyy, dxy, g, lame_lambda):
+    """mohr_coulomb.elastic_increment added to one particle's stress: the trial (σxx, σyy, σzz, τxy)."""
     volumetric = lame_lambda * (dxx + dyy)
     t_xx = sxx + (volumetric + 2 * g * dxx)
     t_yy = syy + (volumetric + 2 * g * dyy)
     t_zz = szz + volumetric
     t_xy = txy + g * dxy
+    return t_xx, t_yy, t_zz, t_xy
+
+
+@njit(cache=True, inline="always")
+def _circle(t_xx, t_yy, t_zz, t_xy):
+    """The trial's Mohr circle in the plane and its extreme principal stresses s1 ≥ s3 with σzz."""
     centre = 0.5 * (t_xx + t_yy)
     half_difference = 0.5 * (t_xx - t_yy)
     radius = np.sqrt(half_difference**2 + t_xy**2)
     a, b = centre + radius, centre - radius
     s1, s3 = _maximum(a, t_zz), _minimum(b, t_zz)
+    return half_difference, radius, a, b, s1, s3
+
+
+@njit(cache=True)
+def _trial_stresses(
+    sxx,
+    syy,
+    szz,
+    txy,
+    strain_xx,
+    strain_yy,
+    strain_xy,
+    shear_modulus,
+    lame_lambda,
+    k,
+    sigma_c,
+    tension_cutoff,
+    volume,
+    yielding,
+):
+    """Each particle's elastic trial stress and new volume, in place; ``yielding``: whether its trial leaves the
+    Mohr-Coulomb surface or passes the tension cutoff (its return is :func:`_returned`'s). No branch: the loop
+    vectorises; compiled on its own."""
+    for q in range(len(sxx)):
+        dxx, dyy = strain_xx[q], strain_yy[q]
+        t_xx, t_yy, t_zz, t_xy = _trial(
+            sxx[q], syy[q], szz[q], txy[q], dxx, dyy, strain_xy[q], shear_modulus[q], lame_lambda[q]
+        )
+        half_difference, radius, a, b, s1, s3 = _circle(t_xx, t_yy, t_zz, t_xy)
+        yielding[q] = (k[q] * s1 - s3 - sigma_c[q] > 0) | (s1 > tension_cutoff[q])
+        sxx[q], syy[q], szz[q], txy[q] = t_xx, t_yy, t_zz, t_xy
+        volume[q] = volume[q] * (1.0 + dxx + dyy)
+
+
+@njit(cache=True, inline="always")
+def _returned(t_xx, t_yy, t_zz, t_xy, shear_modulus, lame_lambda, k, m, sigma_c, tension_cutoff):
+    """mohr_coulomb.return_map of a yielding trial: the stress returned to the surface and the tension cutoff."""
+    g = shear_modulus
+    half_difference, radius, a, b, s1, s3 = _circle(t_xx, t_yy, t_zz, t_xy)
     plastic = k * s1 - s3 - sigma_c > 0
-    if not (plastic or s1 > tension_cutoff):
-        return t_xx, t_yy, t_zz, t_xy
     s2 = a + b + t_zz - s1 - s3
     r1, r2, r3 = s1, s2, s3
     if plastic:
@@ -371,6 +413,7 @@ def advance_frame(
     strain_yy = np.empty(largest)
     strain_xy = np.empty(largest)
     stress = np.empty((largest, 5))
+    yielding = np.empty(largest, dtype=np.bool_)
     node_mass = np.empty(n_nodes)
     inverse_mass = np.empty(n_nodes)
     node_vx = np.empty(n_nodes)
@@ -417,25 +460,37 @@ def advance_frame(
                     4, count, row, base, factors, h, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy
                 )
             # the stress update and the new volume
+            _trial_stresses(
+                sxx[p0:p1],
+                syy[p0:p1],
+                szz[p0:p1],
+                txy[p0:p1],
+                strain_xx[:count],
+                strain_yy[:count],
+                strain_xy[:count],
+                shear_modulus[p0:p1],
+                lame_lambda[p0:p1],
+                k[p0:p1],
+                sigma_c[p0:p1],
+                tension_cutoff[p0:p1],
+                volume[p0:p1],
+                yielding,
+            )
             for q in range(count):
                 p = p0 + q
-                dxx, dyy = strain_xx[q], strain_yy[q]
-                sxx[p], syy[p], szz[p], txy[p] = _stress_update(
-                    sxx[p],
-                    syy[p],
-                    szz[p],
-                    txy[p],
-                    dxx,
-                    dyy,
-                    strain_xy[q],
-                    shear_modulus[p],
-                    lame_lambda[p],
-                    k[p],
-                    m[p],
-                    sigma_c[p],
-                    tension_cutoff[p],
-                )
-                volume[p] = volume[p] * (1.0 + dxx + dyy)
+                if yielding[q]:
+                    sxx[p], syy[p], szz[p], txy[p] = _returned(
+                        sxx[p],
+                        syy[p],
+                        szz[p],
+                        txy[p],
+                        shear_modulus[p],
+                        lame_lambda[p],
+                        k[p],
+                        m[p],
+                        sigma_c[p],
+                        tension_cutoff[p],
+                    )
                 stress[q, 0], stress[q, 1], stress[q, 2] = sxx[p], syy[p], txy[p]
                 stress[q, 3], stress[q, 4] = -volume[p], mass[p]
             # grid update: internal and gravity forces, made and summed slot by slot
