@@ -32,8 +32,8 @@ PHASES = {  # phase: (the shipped line that starts it, the same line switched of
         "    for q in range(0):\n        lxx = 0.0",
     ),
     "stress": (
-        "            for q in range(count):\n                p = p0 + q\n                dxx, dyy",
-        "            for q in range(0):\n                p = p0 + q\n                dxx, dyy",
+        "            _trial_stresses(\n",
+        "            yielding[:count] = False\n            if count < 0:\n                _trial_stresses(\n",
     ),
     "force": (
         "            for s in range(slots):\n                r, c = _slot(s, slots)\n                _force_scatter(",
