@@ -39,6 +39,7 @@ from evidence.engine import (
     convergence_table,
     locking_bspline,
     locking_routes,
+    time_step,
 )
 from evidence.fidelity import (
     bench_chain_coverage,
@@ -122,6 +123,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "convergence-default-error": convergence_default_error,
     "locking-routes": locking_routes,
     "locking-bspline": locking_bspline,
+    "time-step": time_step,
 }
 
 

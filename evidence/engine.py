@@ -226,3 +226,40 @@ def locking_bspline() -> str:
         f"2 × 2 points and {pair(routes['bspline, 1 m, 4x4 points']['runout_m'])} m with 4 × 4, against "
         f"{pair(fine['runout_m'])} m at 0.5 m."
     )
+
+
+def time_step() -> str:
+    """docs/evidence.md: the MPM's mean R, V and I at each CFL number, pure FLIP, per case and mesh, with the change of
+    the default step (the coarsest) from the finest, from paired runs of a seed of their own (time_step.json)."""
+    record = result("time_step.json")
+    lines = [
+        "| case, cells | realizations | CFL | mean R (m) | mean V (m²) | mean I (m) | I less the finest step's (m) "
+        "| V less the finest step's (m²) |",
+        "|---|---:|---|---|---|---|---|---|",
+    ]
+    for group in record["groups"]:
+        if group["pic_blend"] != 0:
+            continue
+        metrics = group["metrics"]
+        means = {key: " / ".join(f"{m['value']:.2f}" for m in metrics[key]["means"]) for key in metrics}
+        changes = {
+            key: true_minus(
+                f"{metrics[key]['change_from_finest'][0]['value']:+.2f} "
+                f"[{metrics[key]['change_from_finest'][0]['lower']:+.2f}, "
+                f"{metrics[key]['change_from_finest'][0]['upper']:+.2f}]"
+            )
+            for key in ("influence_m", "volume_m2")
+        }
+        lines.append(
+            f"| {group['case']}, {group['cell_size_m']:g} m | {group['realizations']} | "
+            f"{' / '.join(f'{x:g}' for x in group['cfl'])} | {means['runout_m']} | {means['volume_m2']} | "
+            f"{means['influence_m']} | {changes['influence_m']} (CFL {group['cfl'][0]:g}) | "
+            f"{changes['volume_m2']} (CFL {group['cfl'][0]:g}) |"
+        )
+    seeds = sorted({seed for group in record["groups"] for seed in group["seeds"]})
+    lines += [
+        "",
+        f"Realizations of seed {', '.join(map(str, seeds))}; intervals 95 % paired bootstrap; "
+        f"`{record['command']}` from `{record['runs']}`, tabled at {record['commit']}.",
+    ]
+    return "\n".join(lines)
