@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> None:
                 config = copy.deepcopy(base)
                 config["mpm"]["embedded"] |= {"cfl": cfl, "pic_blend": pic}
                 done = {i for c, h, p, f, i in load_runs() if (c, h, p, f) == (case, args.cell, pic, cfl)}
-                missing = [i for i in range(args.realizations) if i not in done]
+                missing = [i for i in range(args.first, args.realizations) if i not in done]
                 if not missing:
                     continue
                 inputs = CaseInputs.from_params(asdict(accurate_case_inputs(config, case, args.cell)))
@@ -233,6 +233,7 @@ def main() -> None:
     parser.add_argument("--run", action="store_true", help="run the missing runs before the report")
     parser.add_argument("--cases", nargs="+", default=["case1"])
     parser.add_argument("--realizations", type=int, default=16)
+    parser.add_argument("--first", type=int, default=0, help="run realizations --first .. --realizations - 1 only")
     parser.add_argument("--seed", type=int, default=65301)
     parser.add_argument("--cell", type=float, default=1.0)
     parser.add_argument("--cfl", type=float, nargs="+", default=[0.2, 0.1, 0.05, 0.025])
