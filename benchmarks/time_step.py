@@ -122,6 +122,25 @@ def interval(samples: tuple[np.ndarray, ...], statistic, seed: int = 0) -> dict:
     return {"value": float(point), "lower": float(low), "upper": float(high)}
 
 
+def _mean(values: np.ndarray, axis: int = -1) -> np.ndarray:
+    return np.mean(values, axis=axis)
+
+
+def _mean_difference(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
+    return np.mean(a - b, axis=axis)
+
+
+def _order_value(*levels: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Observed order and Richardson value of three levels' means, each step half the last."""
+    order, value = richardson(np.stack([level.mean(axis=axis) for level in levels], axis=-1))
+    return np.stack([order, value])
+
+
+def halving(cfls: list[float]) -> bool:
+    """Whether the three finest CFL numbers (descending) halve at each step, as the Richardson order assumes."""
+    return len(cfls) >= 3 and cfls[-3] == 2 * cfls[-2] == 4 * cfls[-1]
+
+
 def _text(entry: dict, digits: int = 2) -> str:
     return f"{entry['value']:.{digits}f} [{entry['lower']:.{digits}f}, {entry['upper']:.{digits}f}]"
 
@@ -135,7 +154,7 @@ def report(ends: Path) -> None:
         "`python benchmarks/time_step.py --ends <ends>` from `benchmarks/results/time_step_runs.jsonl`. Each case's",
         "realizations at each CFL number (the time step is CFL · h / (c_p + |v|max)), the pairs' MPM settings;",
         "means with 95 % percentile bootstrap intervals over the realizations (paired), changes from the finest step,",
-        "the observed order in the time step from the three finest (each half the last) and the Richardson value.",
+        "the observed order in the time step from the three finest where each is half the last, and the Richardson value.",
         "",
     ]
     record: dict = {
@@ -169,16 +188,11 @@ def report(ends: Path) -> None:
         ]
         for key in METRICS:
             values = np.array([[row[key] for row in level] for level in rows], dtype=float)
-            means = [interval((v,), lambda a, axis=-1: np.mean(a, axis=axis)) for v in values]
-            changes = [interval((v, values[-1]), lambda a, b, axis=-1: np.mean(a - b, axis=axis)) for v in values[:-1]]
+            means = [interval((v,), _mean) for v in values]
+            changes = [interval((v, values[-1]), _mean_difference) for v in values[:-1]]
             entry = {"means": means, "change_from_finest": changes}
-            if len(cfls) >= 3:
-
-                def order_value(*levels: np.ndarray, axis: int = -1) -> np.ndarray:
-                    order, value = richardson(np.stack([lv.mean(axis=axis) for lv in levels], axis=-1))
-                    return np.stack([order, value])
-
-                point, low, high = paired_bootstrap(tuple(values[-3:]), order_value, 0)
+            if halving(cfls):
+                point, low, high = paired_bootstrap(tuple(values[-3:]), _order_value, 0)
                 entry["order"], entry["richardson"] = (
                     {"value": float(point[k]), "lower": float(low[k]), "upper": float(high[k])} for k in range(2)
                 )
@@ -214,18 +228,16 @@ def influence_at_thresholds(
     paths = [[ends_path(ends, case, cell, pic, x, i) for i in common] for x in cfls]
     if not all(p.exists() for level in paths for p in level):
         return None
-    table = {}
-    for threshold in THRESHOLDS_M:
-        levels = []
-        for level_paths, level_rows in zip(paths, rows):
-            values = []
-            for path, row in zip(level_paths, level_rows):
-                with np.load(path) as data:
-                    initial, final = data["initial"].astype(float), data["final"].astype(float)
-                values.append(influence_distance(initial, final, row["crest_x_m"], threshold))
-            levels.append(np.array(values))
-        table[f"{threshold:g}"] = [interval((v,), lambda a, axis=-1: np.mean(a, axis=axis)) for v in levels]
-    return table
+    values = np.empty((len(THRESHOLDS_M), len(cfls), len(common)))  # [threshold, CFL, realization]
+    for c, (level_paths, level_rows) in enumerate(zip(paths, rows)):
+        for k, (path, row) in enumerate(zip(level_paths, level_rows)):
+            with np.load(path) as data:
+                initial, final = data["initial"].astype(float), data["final"].astype(float)
+            for t, threshold in enumerate(THRESHOLDS_M):
+                values[t, c, k] = influence_distance(initial, final, row["crest_x_m"], threshold)
+    return {
+        f"{threshold:g}": [interval((v,), _mean) for v in levels] for threshold, levels in zip(THRESHOLDS_M, values)
+    }
 
 
 def main() -> None:

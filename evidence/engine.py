@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from evidence.formatting import true_minus
+from evidence.formatting import bracketed, true_minus
 from evidence.sources import result
 
 
@@ -243,12 +243,9 @@ def time_step() -> str:
         metrics = group["metrics"]
         means = {key: " / ".join(f"{m['value']:.2f}" for m in metrics[key]["means"]) for key in metrics}
         changes = {
-            key: true_minus(
-                f"{metrics[key]['change_from_finest'][0]['value']:+.2f} "
-                f"[{metrics[key]['change_from_finest'][0]['lower']:+.2f}, "
-                f"{metrics[key]['change_from_finest'][0]['upper']:+.2f}]"
-            )
+            key: true_minus(bracketed([coarsest[part] for part in ("value", "lower", "upper")], 2, "+"))
             for key in ("influence_m", "volume_m2")
+            for coarsest in [metrics[key]["change_from_finest"][0]]
         }
         lines.append(
             f"| {group['case']}, {group['cell_size_m']:g} m | {group['realizations']} | "
