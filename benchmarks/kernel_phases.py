@@ -1,6 +1,6 @@
 """Where the MPM kernel's step goes: the shipped kernel against copies of it with one phase switched off each.
 
-    python benchmarks/kernel_phases.py [--cells 0.5] [--trials 15]
+    python benchmarks/kernel_phases.py [--cells 0.5] [--trials 15] [--frames 40]
 
 Writes one copy of ``rgns/engines/mpm/kernels.py`` per phase (the weights computed once instead of every step;
 the p2g scatter, the strain sum, the stress update, the force scatter or g2p skipped) and times them side by side
@@ -50,6 +50,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cells", type=float, default=0.5)
     parser.add_argument("--trials", type=int, default=15)
+    parser.add_argument("--frames", type=int, default=40, help="the frame whose state is stepped (kernel_step's)")
     args = parser.parse_args()
     source = KERNELS.read_text()
     with tempfile.TemporaryDirectory() as folder:
@@ -60,6 +61,7 @@ def main() -> None:
             variants.append(Path(folder) / f"without_{phase}.py")
             variants[-1].write_text(source.replace(line, off))
         command = [sys.executable, str(REPO / "benchmarks" / "kernel_step.py"), "--cells", str(args.cells)]
+        command += ["--frames", str(args.frames)]
         subprocess.run([*command, "--trials", str(args.trials), "--variants", *map(str, variants)], check=True)
 
 

@@ -130,9 +130,11 @@ def engine_backends_row() -> str:
             if agreement["same_R_V_I"] and agreement["same_steps"]
             else ("R, V, I or step counts DIFFER")
         )
+        each = mesh["speedup_each"]
         meshes.append(
             f"{shown}: {numba['seconds_best']:.2f} s against {torch['seconds_best']:.2f} s a realization, "
-            f"{mesh['speedup']:.1f}× ({numba['particle_steps_per_s'] / 1e6:.2f} M particle-steps a second), {same}, "
+            f"{mesh['speedup']:.1f}× (each repeat's {min(each):.1f}–{max(each):.1f}×; "
+            f"{numba['particle_steps_per_s'] / 1e6:.2f} M particle-steps a second), {same}, "
             f"final stresses within {agreement['final_stress_max_relative_difference']:.1e} relative"
         )
     return (
