@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import matplotlib
@@ -93,13 +95,20 @@ def mean_intervals(levels: np.ndarray, seed: int = 0) -> dict:
     }
 
 
-def draw(folder: Path, case: str, cells: list[float], picked: list[int], crests: dict[int, float], path: Path) -> None:
-    """One row per picked realization, one panel per mesh: initial points coloured by displacement (m)."""
+def draw(
+    positions: Callable[[float, int], tuple[np.ndarray, np.ndarray]],
+    cells: list[float],
+    picked: list[int],
+    crests: dict[int, float],
+    path: Path,
+) -> None:
+    """One row per picked realization, one panel per mesh: initial points coloured by displacement (m);
+    ``positions(cell, index)``: a run's first and last positions."""
     fig, axes = plt.subplots(len(picked), len(cells), figsize=(3.6 * len(cells), 2.4 * len(picked)), squeeze=False)
     for row, index in enumerate(picked):
         for col, cell in enumerate(cells):
             ax = axes[row, col]
-            initial, final = ends(folder, case, cell, index)
+            initial, final = positions(cell, index)
             moved = np.linalg.norm(final - initial, axis=1)
             shown = ax.scatter(
                 initial[:, 0], initial[:, 1], c=np.clip(moved, 0.0, 4.0), s=0.6, cmap="viridis", vmin=0.0, vmax=4.0
@@ -146,7 +155,7 @@ def main() -> None:
     picked = [indices[k] for k in np.argsort(-np.abs(jump))[: args.pictures]]
     other_case = args.case != "case1"
     name = "influence_mechanism" + (f"_{args.case}" if other_case else "")
-    draw(args.ends, args.case, args.cells, picked, dict(zip(indices, crests)), OUT / f"{name}.png")
+    draw(partial(ends, args.ends, args.case), args.cells, picked, dict(zip(indices, crests)), OUT / f"{name}.png")
     command = f"python benchmarks/influence_mechanism.py --ends <ends> --runs {args.runs.name}"
     command += f" --case {args.case}" if other_case else ""
     sizes = " / ".join(f"{h:g}" for h in args.cells)

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from influence_mechanism import THRESHOLDS_M  # noqa: E402
+from influence_mechanism import THRESHOLDS_M, draw  # noqa: E402
 from mesh_levels import (  # noqa: E402
     add_held_out_family,
     append_lines,
@@ -53,6 +53,7 @@ OUT = REPO / "benchmarks" / "results"
 RUNS = OUT / "time_step_runs.jsonl"
 METRICS = ("runout_m", "volume_m2", "influence_m")
 HELD_OUT = ("ood_bench", "ood_concave", "hillside")
+BY_THRESHOLD = "influence_by_threshold_m"  # a run's I at each of THRESHOLDS_M, stored with it (runs since 2026-12-03)
 
 Key = tuple[str, float, float, float, int]  # case, cell size (m), PIC blend, CFL number, realization index
 
@@ -100,8 +101,19 @@ def run(args: argparse.Namespace) -> None:
             for case in args.cases:
                 config = copy.deepcopy(base)
                 config["mpm"]["embedded"] |= {"cfl": cfl, "pic_blend": pic}
-                done = {i for c, h, p, f, i in load_runs() if (c, h, p, f) == (case, args.cell, pic, cfl)}
-                missing = [i for i in range(args.first, args.realizations) if i not in done]
+                stored = {
+                    i: row
+                    for (c, h, p, f, i), row in load_runs().items()
+                    if (c, h, p, f) == (case, args.cell, pic, cfl)
+                }
+                wanted = range(args.first, args.realizations)
+                missing = [i for i in wanted if i not in stored]
+                if args.refresh_ends:  # stored runs whose positions were not kept, run again to keep them
+                    missing += [
+                        i
+                        for i in wanted
+                        if i in stored and not ends_path(args.ends, case, args.cell, pic, cfl, i).exists()
+                    ]
                 if not missing:
                     continue
                 inputs = CaseInputs.from_params(asdict(accurate_case_inputs(config, case, args.cell)))
@@ -113,6 +125,13 @@ def run(args: argparse.Namespace) -> None:
                     row = {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
                     extra = {"case": case, "pic_blend": pic, "cfl": cfl, "cell_size_m": args.cell, "seed": args.seed}
                     extra["seconds"] = time.perf_counter() - began
+                    key = (case, args.cell, pic, cfl, index)
+                    extra[BY_THRESHOLD] = run_thresholds(args.ends, key, row)  # stored: the kept positions may go
+                    if index in stored:  # a run again for its positions: it must repeat the stored one
+                        changed = [k for k in METRICS if row[k] != stored[index][k]]
+                        if changed:
+                            sys.exit(f"time_step: {key} ran again gives other {', '.join(changed)} than stored")
+                        continue
                     append_lines(RUNS, json.dumps(row | extra) + "\n")
                 print(f"{case} pic {pic:g} cfl {cfl:g}: {len(missing)} runs", flush=True)
 
@@ -202,7 +221,8 @@ def report(ends: Path) -> None:
             lines.append(f"| mean {key} | " + " | ".join(cells + extras) + " |")
             lines.append(f"| {key} less the finest | " + " | ".join([_text(c) for c in changes] + ["0"]) + " | | |")
         lines.append("| s per realization | " + " | ".join(f"{s:.1f}" for s in seconds) + " | | |")
-        thresholds = influence_at_thresholds(ends, case, cell, pic, cfls, common, rows)
+        keys = [[(case, cell, pic, x, i) for i in common] for x in cfls]
+        thresholds = influence_at_thresholds(ends, keys, rows)
         if thresholds is not None:
             group["influence_at_thresholds"] = thresholds
             lines += [
@@ -221,23 +241,137 @@ def report(ends: Path) -> None:
     print("\n".join(lines))
 
 
-def influence_at_thresholds(
-    ends: Path, case: str, cell: float, pic: float, cfls: list[float], common: list[int], rows: list[list[dict]]
-) -> dict | None:
-    """Mean I at each of THRESHOLDS_M per CFL number, with intervals; None where a run's positions were not kept."""
-    paths = [[ends_path(ends, case, cell, pic, x, i) for i in common] for x in cfls]
-    if not all(p.exists() for level in paths for p in level):
+def thresholds_of(initial: np.ndarray, final: np.ndarray, crest_x: float) -> dict[str, float]:
+    """A run's I at each of THRESHOLDS_M from its first and last positions."""
+    initial, final = initial.astype(float), final.astype(float)
+    return {f"{t:g}": float(influence_distance(initial, final, crest_x, t)) for t in THRESHOLDS_M}
+
+
+def run_thresholds(ends: Path, key: Key, row: dict) -> dict[str, float] | None:
+    """A run's I at each threshold: stored with it, or from its kept positions; None where neither is there."""
+    if BY_THRESHOLD in row:
+        return row[BY_THRESHOLD]
+    path = ends_path(ends, *key)
+    if not path.exists():
         return None
-    values = np.empty((len(THRESHOLDS_M), len(cfls), len(common)))  # [threshold, CFL, realization]
-    for c, (level_paths, level_rows) in enumerate(zip(paths, rows)):
-        for k, (path, row) in enumerate(zip(level_paths, level_rows)):
-            with np.load(path) as data:
-                initial, final = data["initial"].astype(float), data["final"].astype(float)
-            for t, threshold in enumerate(THRESHOLDS_M):
-                values[t, c, k] = influence_distance(initial, final, row["crest_x_m"], threshold)
+    with np.load(path) as data:
+        return thresholds_of(data["initial"], data["final"], row["crest_x_m"])
+
+
+def influence_at_thresholds(ends: Path, keys: list[list[Key]], rows: list[list[dict]]) -> dict | None:
+    """Mean I at each of THRESHOLDS_M per level (``keys`` and ``rows`` [level][realization]), with intervals; None
+    where a run has neither its values stored nor its positions kept."""
+    found = [[run_thresholds(ends, key, row) for key, row in zip(*level)] for level in zip(keys, rows)]
+    if any(entry is None for level in found for entry in level):
+        return None
     return {
-        f"{threshold:g}": [interval((v,), _mean) for v in levels] for threshold, levels in zip(THRESHOLDS_M, values)
+        f"{t:g}": [interval((np.array([entry[f"{t:g}"] for entry in level]),), _mean) for level in found]
+        for t in THRESHOLDS_M
     }
+
+
+def draw_largest_changes(
+    ends: Path, case: str, cells: list[float], keys: list[list[Key]], rows: list[list[dict]], count: int = 3
+) -> dict | None:
+    """The displacement fields at every cell size of the ``count`` realizations whose I changes most in the last
+    refinement, among those whose positions were kept at every cell size (``time_step_mesh_<case>.png``)."""
+    kept = [k for k in range(len(keys[0])) if all(ends_path(ends, *level[k]).exists() for level in keys)]
+    if not kept:
+        return None
+    change = {k: abs(rows[-1][k]["influence_m"] - rows[-2][k]["influence_m"]) for k in kept}
+    picked = sorted(kept, key=lambda k: -change[k])[:count]
+    indices = [keys[0][k][-1] for k in picked]
+    crests = {keys[0][k][-1]: rows[0][k]["crest_x_m"] for k in picked}
+    pic, cfl = keys[0][0][2], keys[0][0][3]
+
+    def positions(cell: float, index: int) -> tuple[np.ndarray, np.ndarray]:
+        with np.load(ends_path(ends, case, cell, pic, cfl, index)) as data:
+            return data["initial"].astype(float), data["final"].astype(float)
+
+    name = f"time_step_mesh_{case}.png"
+    draw(positions, cells, indices, crests, OUT / name)
+    return {"file": name, "realizations": indices}
+
+
+def mesh_report(ends: Path, cfl: float, pic: float) -> None:
+    """R, V and I against the cell size at one CFL number (a converged time step): per case, the realizations every
+    cell size ran; means with intervals, each level's paired change from the next finer, the observed order and
+    Richardson value from the three finest where each cell is half the last. ``time_step_mesh.{md,json}``."""
+    runs = load_runs()
+    cases = sorted({c for c, h, p, f, _ in runs if (p, f) == (pic, cfl)})
+    lines = [
+        f"# The MPM's R, V and I against the cell size at CFL {cfl:g}",
+        "",
+        f"`python benchmarks/time_step.py --ends <ends> --mesh-cfl {cfl:g}` from "
+        f"`benchmarks/results/time_step_runs.jsonl`, PIC blend {pic:g}: the realizations every cell size ran at a time "
+        "step converged at 1 and 0.5 m (`time_step.md`); means with 95 % percentile bootstrap intervals over the "
+        "realizations (paired), each level's change from the next finer, the observed order in the cell size from the "
+        "three finest where each is half the last, and the Richardson value.",
+        "",
+    ]
+    record: dict = {
+        "command": " ".join(["python benchmarks/time_step.py", *sys.argv[1:]]),
+        "commit": commit(),
+        "runs": str(RUNS.relative_to(REPO)),
+        "cfl": cfl,
+        "pic_blend": pic,
+        "cases": [],
+    }
+    for case in cases:
+        cells = sorted({h for c, h, p, f, _ in runs if (c, p, f) == (case, pic, cfl)}, reverse=True)
+        if len(cells) < 2:
+            continue
+        levels = ({i for c, h, p, f, i in runs if (c, h, p, f) == (case, x, pic, cfl)} for x in cells)
+        common = sorted(set.intersection(*levels))
+        keys = [[(case, x, pic, cfl, i) for i in common] for x in cells]
+        rows = [[runs[key] for key in level] for level in keys]
+        entry: dict = {"case": case, "cell_size_m": cells, "realizations": len(common), "metrics": {}}
+        lines += [
+            f"## {case}: {len(common)} realizations (seed {', '.join(map(str, sorted({r['seed'] for r in rows[0]})))})",
+            "",
+            "| metric | " + " | ".join(f"{x:g} m" for x in cells) + " | order (3 finest) | Richardson value |",
+            "|---|" + "---|" * (len(cells) + 2),
+        ]
+        for key in METRICS:
+            values = np.array([[row[key] for row in level] for level in rows], dtype=float)
+            metric: dict = {
+                "means": [interval((v,), _mean) for v in values],
+                "change_from_finer": [interval((a, b), _mean_difference) for a, b in zip(values[:-1], values[1:])],
+            }
+            if halving(cells):
+                point, low, high = paired_bootstrap(tuple(values[-3:]), _order_value, 0)
+                metric["order"], metric["richardson"] = (
+                    {"value": float(point[k]), "lower": float(low[k]), "upper": float(high[k])} for k in range(2)
+                )
+            entry["metrics"][key] = metric
+            extras = [_text(metric["order"]), _text(metric["richardson"])] if "order" in metric else ["", ""]
+            lines.append(f"| mean {key} | " + " | ".join([_text(m) for m in metric["means"]] + extras) + " |")
+            changes = [_text(c) for c in metric["change_from_finer"]]
+            lines.append(f"| {key} less the next finer | " + " | ".join([*changes, ""]) + " | | |")
+        seconds = [float(np.mean([row["seconds"] for row in level])) for level in rows]
+        entry["seconds"] = seconds
+        lines.append("| s per realization | " + " | ".join(f"{x:.1f}" for x in seconds) + " | | |")
+        thresholds = influence_at_thresholds(ends, keys, rows)
+        if thresholds is not None:
+            entry["influence_at_thresholds"] = thresholds
+            lines += ["", "Mean I (m) at displacement thresholds:", ""]
+            lines += ["| threshold | " + " | ".join(f"{x:g} m" for x in cells) + " |", "|---|" + "---|" * len(cells)]
+            lines += [f"| {t} m | " + " | ".join(_text(m) for m in means) + " |" for t, means in thresholds.items()]
+        picture = draw_largest_changes(ends, case, cells, keys, rows)
+        if picture is not None:
+            entry["picture"] = picture
+            lines += [
+                "",
+                f"`{picture['file']}`: realizations {', '.join(map(str, picture['realizations']))} (of those whose "
+                "positions were kept at every cell size, the largest changes of I in the last refinement), each point "
+                "at its initial position coloured by how far it moved; dashed: the crest, red: the rear-most point "
+                "moved 1 m.",
+            ]
+        lines.append("")
+        record["cases"].append(entry)
+    (OUT / "time_step_mesh.md").write_text("\n".join(lines))
+    (OUT / "time_step_mesh.json").write_text(json.dumps(record, indent=1) + "\n")
+    print("\n".join(lines))
 
 
 def main() -> None:
@@ -252,10 +386,18 @@ def main() -> None:
     parser.add_argument("--pic", type=float, nargs="+", default=[0.0])
     parser.add_argument("--ends", type=Path, required=True)
     parser.add_argument("--no-report", action="store_true")
+    parser.add_argument(
+        "--refresh-ends", action="store_true", help="run stored runs again to keep their positions (checked equal)"
+    )
+    parser.add_argument("--mesh-cfl", type=float, help="report R, V, I against the cell size at this CFL number")
     args = parser.parse_args()
     if args.run:
         run(args)
-    if not args.no_report:
+    if args.no_report:
+        return
+    if args.mesh_cfl is not None:
+        mesh_report(args.ends, args.mesh_cfl, args.pic[0])
+    else:
         report(args.ends)
 
 

@@ -40,6 +40,7 @@ from evidence.engine import (
     locking_bspline,
     locking_routes,
     time_step,
+    time_step_mesh,
 )
 from evidence.fidelity import (
     bench_chain_coverage,
@@ -124,6 +125,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "locking-routes": locking_routes,
     "locking-bspline": locking_bspline,
     "time-step": time_step,
+    "time-step-mesh": time_step_mesh,
 }
 
 

@@ -260,3 +260,42 @@ def time_step() -> str:
         f"`{record['command']}` from `{record['runs']}`, tabled at {record['commit']}.",
     ]
     return "\n".join(lines)
+
+
+def time_step_mesh() -> str:
+    """docs/evidence.md: the MPM's mean R, V and I against the cell size at a converged time step, with the last
+    refinement's change, the observed order and the Richardson value, and I at displacement thresholds
+    (time_step_mesh.json)."""
+    record = result("time_step_mesh.json")
+    names = {"runout_m": "R (m)", "volume_m2": "V (m²)", "influence_m": "I (m)"}
+    lines = []
+    for case in record["cases"]:
+        cells = case["cell_size_m"]
+        lines += [
+            f"{case['case']}, {case['realizations']} realizations at every cell size, CFL {record['cfl']:g}:",
+            "",
+            "| quantity | " + " | ".join(f"{x:g} m" for x in cells) + " | last refinement's change | observed order "
+            "(3 finest) | Richardson value |",
+            "|---|" + "---|" * (len(cells) + 3),
+        ]
+
+        def text(entry: dict[str, float], sign: str = "") -> str:
+            return true_minus(bracketed([entry[part] for part in ("value", "lower", "upper")], 2, sign))
+
+        for key, name in names.items():
+            metric = case["metrics"][key]
+            means = [f"{m['value']:.2f}" for m in metric["means"]]
+            last = metric["change_from_finer"][-1]
+            change = true_minus(
+                bracketed([-last[part] for part in ("value", "upper", "lower")], 2, "+")
+            )  # finer less coarser
+            order = [text(metric["order"]), text(metric["richardson"])] if "order" in metric else ["—", "—"]
+            lines.append(f"| mean {name} | " + " | ".join([*means, change, *order]) + " |")
+        for threshold, means in case.get("influence_at_thresholds", {}).items():
+            values = " | ".join(f"{m['value']:.2f}" for m in means)
+            lines.append(f"| mean I at a {threshold} m threshold (m) | {values} | | | |")
+        lines.append("")
+    lines.append(
+        f"Intervals 95 % paired bootstrap; `{record['command']}` from `{record['runs']}`, tabled at {record['commit']}."
+    )
+    return "\n".join(lines)
