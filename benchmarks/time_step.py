@@ -293,6 +293,26 @@ def draw_largest_changes(
     return {"file": name, "realizations": indices}
 
 
+def mesh_sets(
+    runs: dict[Key, dict], cases: list[str], pic: float, cfl: float
+) -> list[tuple[str, list[float], list[int]]]:
+    """Per case, the cell sizes (descending) and the realizations every one of them ran (two at least); and where
+    the finest ran fewer (a study under way), the same without it."""
+    sets = []
+    for case in cases:
+        cells = sorted({h for c, h, p, f, _ in runs if (c, p, f) == (case, pic, cfl)}, reverse=True)
+        ran = {x: {i for c, h, p, f, i in runs if (c, h, p, f) == (case, x, pic, cfl)} for x in cells}
+        while len(cells) >= 2:
+            common = sorted(set.intersection(*(ran[x] for x in cells)))
+            if len(common) >= 2:  # an interval needs two
+                sets.append((case, cells, common))
+            coarser = set.intersection(*(ran[x] for x in cells[:-1]))
+            if len(coarser) == len(common):
+                break
+            cells = cells[:-1]
+    return sets
+
+
 def mesh_report(ends: Path, cfl: float, pic: float) -> None:
     """R, V and I against the cell size at one CFL number (a converged time step): per case, the realizations every
     cell size ran; means with intervals, each level's paired change from the next finer, the observed order and
@@ -317,17 +337,13 @@ def mesh_report(ends: Path, cfl: float, pic: float) -> None:
         "pic_blend": pic,
         "cases": [],
     }
-    for case in cases:
-        cells = sorted({h for c, h, p, f, _ in runs if (c, p, f) == (case, pic, cfl)}, reverse=True)
-        if len(cells) < 2:
-            continue
-        levels = ({i for c, h, p, f, i in runs if (c, h, p, f) == (case, x, pic, cfl)} for x in cells)
-        common = sorted(set.intersection(*levels))
+    for case, cells, common in mesh_sets(runs, cases, pic, cfl):
         keys = [[(case, x, pic, cfl, i) for i in common] for x in cells]
         rows = [[runs[key] for key in level] for level in keys]
         entry: dict = {"case": case, "cell_size_m": cells, "realizations": len(common), "metrics": {}}
+        seeds = ", ".join(map(str, sorted({r["seed"] for r in rows[0]})))
         lines += [
-            f"## {case}: {len(common)} realizations (seed {', '.join(map(str, sorted({r['seed'] for r in rows[0]})))})",
+            f"## {case}, {' / '.join(f'{x:g}' for x in cells)} m: {len(common)} realizations (seed {seeds})",
             "",
             "| metric | " + " | ".join(f"{x:g} m" for x in cells) + " | order (3 finest) | Richardson value |",
             "|---|" + "---|" * (len(cells) + 2),
