@@ -274,7 +274,7 @@ def draw_largest_changes(
     ends: Path, case: str, cells: list[float], keys: list[list[Key]], rows: list[list[dict]], count: int = 3
 ) -> dict | None:
     """The displacement fields at every cell size of the ``count`` realizations whose I changes most in the last
-    refinement, among those whose positions were kept at every cell size (``time_step_mesh_<case>.png``)."""
+    refinement, among those whose positions were kept at every cell size (``time_step_mesh_<case>_<finest>m.png``)."""
     kept = [k for k in range(len(keys[0])) if all(ends_path(ends, *level[k]).exists() for level in keys)]
     if not kept:
         return None
@@ -288,7 +288,7 @@ def draw_largest_changes(
         with np.load(ends_path(ends, case, cell, pic, cfl, index)) as data:
             return data["initial"].astype(float), data["final"].astype(float)
 
-    name = f"time_step_mesh_{case}.png"
+    name = f"time_step_mesh_{case}_{cells[-1]:g}m.png"
     draw(positions, cells, indices, crests, OUT / name)
     return {"file": name, "realizations": indices}
 
