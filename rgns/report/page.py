@@ -275,9 +275,9 @@ def _runout_line(case: str, record: dict[str, Any]) -> tuple[str, bool]:
 
 
 INFLUENCE_UNCONVERGED = (
-    "no converged value under refinement: on finer meshes a few surface points lifted far behind the crest set it, "
-    "and the default time step (CFL 0.2) makes it longer than a step converged in time: 12 % on case 1 at 0.5 m "
-    "cells, 5–13 % at 1 m (docs/evidence.md)"
+    "no convergence order measured: at a time step converged in time it still grows a few tenths of a metre each "
+    "time the cell is halved, and the default step (CFL 0.2) makes it longer: 12 % on case 1 at 0.5 m cells, "
+    "5–13 % at 1 m, and on finer meshes lets a few lifted surface points set it (docs/evidence.md)"
 )
 UNCONVERGED = {
     "influence_m": INFLUENCE_UNCONVERGED,
