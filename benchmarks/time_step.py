@@ -123,15 +123,15 @@ def run(args: argparse.Namespace) -> None:
                     began = time.perf_counter()
                     (row,) = run_realizations(inputs, [index], settings).to_dict("records")
                     row = {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
-                    extra = {"case": case, "pic_blend": pic, "cfl": cfl, "cell_size_m": args.cell, "seed": args.seed}
-                    extra["seconds"] = time.perf_counter() - began
                     key = (case, args.cell, pic, cfl, index)
-                    extra[BY_THRESHOLD] = run_thresholds(args.ends, key, row)  # stored: the kept positions may go
                     if index in stored:  # a run again for its positions: it must repeat the stored one
                         changed = [k for k in METRICS if row[k] != stored[index][k]]
                         if changed:
                             sys.exit(f"time_step: {key} ran again gives other {', '.join(changed)} than stored")
                         continue
+                    extra = {"case": case, "pic_blend": pic, "cfl": cfl, "cell_size_m": args.cell, "seed": args.seed}
+                    extra["seconds"] = time.perf_counter() - began
+                    extra[BY_THRESHOLD] = run_thresholds(args.ends, key, row)  # stored: the kept positions may go
                     append_lines(RUNS, json.dumps(row | extra) + "\n")
                 print(f"{case} pic {pic:g} cfl {cfl:g}: {len(missing)} runs", flush=True)
 
@@ -162,6 +162,28 @@ def halving(cfls: list[float]) -> bool:
 
 def _text(entry: dict, digits: int = 2) -> str:
     return f"{entry['value']:.{digits}f} [{entry['lower']:.{digits}f}, {entry['upper']:.{digits}f}]"
+
+
+def order_entry(values: np.ndarray, halves: bool) -> dict:
+    """The observed order and Richardson value of the three finest levels of ``values`` [level, realization], with
+    intervals, where each level halves the last (``halves``); empty otherwise."""
+    if not halves:
+        return {}
+    point, low, high = paired_bootstrap(tuple(values[-3:]), _order_value, 0)
+    order, value = ({"value": float(point[k]), "lower": float(low[k]), "upper": float(high[k])} for k in range(2))
+    return {"order": order, "richardson": value}
+
+
+def mean_row(key: str, entry: dict) -> str:
+    """A metric's table row: its mean at each level, then its order and Richardson value (blank where none)."""
+    extras = [_text(entry["order"]), _text(entry["richardson"])] if "order" in entry else ["", ""]
+    return f"| mean {key} | " + " | ".join([_text(m) for m in entry["means"]] + extras) + " |"
+
+
+def threshold_rows(thresholds: dict, levels: list[str]) -> list[str]:
+    """The table of mean I at each displacement threshold (rows) and level (columns, headed ``levels``)."""
+    header = ["| threshold | " + " | ".join(levels) + " |", "|---|" + "---|" * len(levels)]
+    return header + [f"| {t} m | " + " | ".join(_text(m) for m in means) + " |" for t, means in thresholds.items()]
 
 
 def report(ends: Path) -> None:
@@ -209,31 +231,17 @@ def report(ends: Path) -> None:
             values = np.array([[row[key] for row in level] for level in rows], dtype=float)
             means = [interval((v,), _mean) for v in values]
             changes = [interval((v, values[-1]), _mean_difference) for v in values[:-1]]
-            entry = {"means": means, "change_from_finest": changes}
-            if halving(cfls):
-                point, low, high = paired_bootstrap(tuple(values[-3:]), _order_value, 0)
-                entry["order"], entry["richardson"] = (
-                    {"value": float(point[k]), "lower": float(low[k]), "upper": float(high[k])} for k in range(2)
-                )
+            entry = {"means": means, "change_from_finest": changes} | order_entry(values, halving(cfls))
             group["metrics"][key] = entry
-            cells = [_text(m) for m in means]
-            extras = [_text(entry["order"]), _text(entry["richardson"])] if "order" in entry else ["", ""]
-            lines.append(f"| mean {key} | " + " | ".join(cells + extras) + " |")
+            lines.append(mean_row(key, entry))
             lines.append(f"| {key} less the finest | " + " | ".join([_text(c) for c in changes] + ["0"]) + " | | |")
         lines.append("| s per realization | " + " | ".join(f"{s:.1f}" for s in seconds) + " | | |")
         keys = [[(case, cell, pic, x, i) for i in common] for x in cfls]
         thresholds = influence_at_thresholds(ends, keys, rows)
         if thresholds is not None:
             group["influence_at_thresholds"] = thresholds
-            lines += [
-                "",
-                "Mean I (m) at displacement thresholds, from the kept first and last positions:",
-                "",
-                "| threshold | " + " | ".join(f"CFL {x:g}" for x in cfls) + " |",
-                "|---|" + "---|" * len(cfls),
-            ]
-            for threshold, level_means in thresholds.items():
-                lines.append(f"| {threshold} m | " + " | ".join(_text(m) for m in level_means) + " |")
+            lines += ["", "Mean I (m) at displacement thresholds, from the kept first and last positions:", ""]
+            lines += threshold_rows(thresholds, [f"CFL {x:g}" for x in cfls])
         lines.append("")
         record["groups"].append(group)
     (OUT / "time_step.md").write_text("\n".join(lines))
@@ -243,19 +251,23 @@ def report(ends: Path) -> None:
 
 def thresholds_of(initial: np.ndarray, final: np.ndarray, crest_x: float) -> dict[str, float]:
     """A run's I at each of THRESHOLDS_M from its first and last positions."""
-    initial, final = initial.astype(float), final.astype(float)
+    initial, final = initial.astype(float), final.astype(float)  # float32 as kept in a fresh run
     return {f"{t:g}": float(influence_distance(initial, final, crest_x, t)) for t in THRESHOLDS_M}
+
+
+def kept_positions(ends: Path, key: Key) -> tuple[np.ndarray, np.ndarray]:
+    """A run's first and last positions, as :func:`run` kept them."""
+    with np.load(ends_path(ends, *key)) as data:
+        return data["initial"].astype(float), data["final"].astype(float)
 
 
 def run_thresholds(ends: Path, key: Key, row: dict) -> dict[str, float] | None:
     """A run's I at each threshold: stored with it, or from its kept positions; None where neither is there."""
     if BY_THRESHOLD in row:
         return row[BY_THRESHOLD]
-    path = ends_path(ends, *key)
-    if not path.exists():
+    if not ends_path(ends, *key).exists():
         return None
-    with np.load(path) as data:
-        return thresholds_of(data["initial"], data["final"], row["crest_x_m"])
+    return thresholds_of(*kept_positions(ends, key), row["crest_x_m"])
 
 
 def influence_at_thresholds(ends: Path, keys: list[list[Key]], rows: list[list[dict]]) -> dict | None:
@@ -283,13 +295,8 @@ def draw_largest_changes(
     indices = [keys[0][k][-1] for k in picked]
     crests = {keys[0][k][-1]: rows[0][k]["crest_x_m"] for k in picked}
     pic, cfl = keys[0][0][2], keys[0][0][3]
-
-    def positions(cell: float, index: int) -> tuple[np.ndarray, np.ndarray]:
-        with np.load(ends_path(ends, case, cell, pic, cfl, index)) as data:
-            return data["initial"].astype(float), data["final"].astype(float)
-
     name = f"time_step_mesh_{case}_{cells[-1]:g}m.png"
-    draw(positions, cells, indices, crests, OUT / name)
+    draw(lambda cell, index: kept_positions(ends, (case, cell, pic, cfl, index)), cells, indices, crests, OUT / name)
     return {"file": name, "realizations": indices}
 
 
@@ -353,15 +360,9 @@ def mesh_report(ends: Path, cfl: float, pic: float) -> None:
             metric: dict = {
                 "means": [interval((v,), _mean) for v in values],
                 "change_from_finer": [interval((a, b), _mean_difference) for a, b in zip(values[:-1], values[1:])],
-            }
-            if halving(cells):
-                point, low, high = paired_bootstrap(tuple(values[-3:]), _order_value, 0)
-                metric["order"], metric["richardson"] = (
-                    {"value": float(point[k]), "lower": float(low[k]), "upper": float(high[k])} for k in range(2)
-                )
+            } | order_entry(values, halving(cells))
             entry["metrics"][key] = metric
-            extras = [_text(metric["order"]), _text(metric["richardson"])] if "order" in metric else ["", ""]
-            lines.append(f"| mean {key} | " + " | ".join([_text(m) for m in metric["means"]] + extras) + " |")
+            lines.append(mean_row(key, metric))
             changes = [_text(c) for c in metric["change_from_finer"]]
             lines.append(f"| {key} less the next finer | " + " | ".join([*changes, ""]) + " | | |")
         seconds = [float(np.mean([row["seconds"] for row in level])) for level in rows]
@@ -371,8 +372,7 @@ def mesh_report(ends: Path, cfl: float, pic: float) -> None:
         if thresholds is not None:
             entry["influence_at_thresholds"] = thresholds
             lines += ["", "Mean I (m) at displacement thresholds:", ""]
-            lines += ["| threshold | " + " | ".join(f"{x:g} m" for x in cells) + " |", "|---|" + "---|" * len(cells)]
-            lines += [f"| {t} m | " + " | ".join(_text(m) for m in means) + " |" for t, means in thresholds.items()]
+            lines += threshold_rows(thresholds, [f"{x:g} m" for x in cells])
         picture = draw_largest_changes(ends, case, cells, keys, rows)
         if picture is not None:
             entry["picture"] = picture

@@ -262,6 +262,11 @@ def time_step() -> str:
     return "\n".join(lines)
 
 
+def _interval(entry: dict[str, float]) -> str:
+    """'v [lo, hi]' of an entry with value, lower and upper, minus signs true."""
+    return true_minus(bracketed([entry[part] for part in ("value", "lower", "upper")], 2))
+
+
 def time_step_mesh() -> str:
     """docs/evidence.md: the MPM's mean R, V and I against the cell size at a converged time step, with the last
     refinement's change, the observed order and the Richardson value, and I at displacement thresholds
@@ -278,10 +283,6 @@ def time_step_mesh() -> str:
             "(3 finest) | Richardson value |",
             "|---|" + "---|" * (len(cells) + 3),
         ]
-
-        def text(entry: dict[str, float], sign: str = "") -> str:
-            return true_minus(bracketed([entry[part] for part in ("value", "lower", "upper")], 2, sign))
-
         for key, name in names.items():
             metric = case["metrics"][key]
             means = [f"{m['value']:.2f}" for m in metric["means"]]
@@ -289,7 +290,7 @@ def time_step_mesh() -> str:
             change = true_minus(
                 bracketed([-last[part] for part in ("value", "upper", "lower")], 2, "+")
             )  # finer less coarser
-            order = [text(metric["order"]), text(metric["richardson"])] if "order" in metric else ["—", "—"]
+            order = [_interval(metric["order"]), _interval(metric["richardson"])] if "order" in metric else ["—", "—"]
             lines.append(f"| mean {name} | " + " | ".join([*means, change, *order]) + " |")
         for threshold, means in case.get("influence_at_thresholds", {}).items():
             values = " | ".join(f"{m['value']:.2f}" for m in means)
