@@ -60,12 +60,14 @@ def spec(
     batch_graphs: int = 4,
     rollout_from_frame: int = 0,
     message_passing_steps: int = 5,
+    rest_head: bool = False,
 ) -> tuple[ModelSettings, TrainSettings]:
     """The prototype's spec (docs findings §5: 214 k parameters), its radius about 2.2 node spacings; with
     ``pushforward_steps``, each window's input is the model's own rollout over that many steps before the target;
     ``learning_rate`` is annealed to a hundredth of itself over ``decay_steps``; with ``ema_decay`` the model evaluated
     is the moving average of the weights; with ``rollout_steps`` the loss is over that many of the model's own steps
-    (rgns.surrogates.gns.simulator.RolloutLoss); ``message_passing_steps`` sets the reach, that many radii."""
+    (rgns.surrogates.gns.simulator.RolloutLoss); ``message_passing_steps`` sets the reach, that many radii; with
+    ``rest_head`` the network also says whether a node is at rest after the step (ModelSettings.rest_head)."""
     model = ModelSettings(
         latent_size=64,
         mlp_width=64,
@@ -74,6 +76,7 @@ def spec(
         history=5,
         radius_m=radius_m,
         static_features=static,
+        rest_head=rest_head,
     )
     training = TrainSettings(
         batch_graphs=batch_graphs,
@@ -216,6 +219,7 @@ def spec_of(args: argparse.Namespace) -> tuple[ModelSettings, TrainSettings]:
         args.batch,
         args.rollout_from,
         args.message_passing,
+        args.rest_head,
     )
 
 
@@ -233,6 +237,7 @@ def spec_flags(args: argparse.Namespace) -> str:
     flags += f" --batch {args.batch}" if args.batch != 4 else ""
     flags += f" --init {args.init}" if args.init else ""
     flags += f" --message-passing {args.message_passing}" if args.message_passing != 5 else ""
+    flags += " --rest-head" if args.rest_head else ""
     return flags + f" --radius {args.radius:g}"
 
 
@@ -435,6 +440,7 @@ def main() -> None:
     parser.add_argument(
         "--train-config", default="config/pretrain.yaml", help="report: the config that made the training set"
     )
+    parser.add_argument("--rest-head", action="store_true", help="a rest head: deposits held where it says at rest")
     parser.add_argument("--static", action="store_true", help="give nodes where they started (static_features)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")

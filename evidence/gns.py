@@ -170,6 +170,7 @@ UNRECORDED = {  # what a record made before a key existed ran with
     "rollout_steps": 0,
     "rollout_from_frame": 0,
     "train_data": {"config": "config/pretrain.yaml", "runs": 168},
+    "rest_head": False,
 }
 CHANGES = {  # a spec key: how the sentence names its value
     "radius_m": lambda v: f"radius {v:g} m",
@@ -184,6 +185,7 @@ CHANGES = {  # a spec key: how the sentence names its value
     "rollout_from_frame": lambda v: f"that loss on windows from frame {v} on, the one-step loss on all beside it",
     "batch_graphs": lambda v: f"{v} window{'s' if v != 1 else ''} a step",
     "train_data": lambda v: f"{v['runs']} training runs (`{v['config']}`)",
+    "rest_head": lambda v: "a rest head (a displaced node it calls at rest held in place)" if v else "no rest head",
 }
 
 

@@ -15,6 +15,10 @@ Options, each switchable so their effect on error can be measured:
   and the last two, for R, V, I and the final kinetic energy), which spares copying every frame
   off the device and holding [T, N, 2] per realization.
 
+A simulator with a rest head (``ModelSettings.rest_head``) holds a particle in place for a step where the head
+calls it at rest and it lies more than ``rest_displacement`` from where the rollout started it: a deposit comes to
+rest, while the slope that has not failed yet is left to the network's accelerations (a particle held at rest with
+no velocity would stay so, and failure could never start).
 The walls and the floor are rigid: a particle the network moves past one is put back on it (and
 counted in ``pushed_back``). A realization with a non-finite position, or a particle moved more than
 ``domain_margin_m`` past the domain in one frame, is flagged ``diverged`` and stopped; the others go
@@ -139,7 +143,11 @@ def rollout(
         sub_senders, sub_receivers, ids = _subgraph(senders, receivers, involved)
         graph = GraphInput(history, types, friction, batch, n_graphs, static).subset(ids)
         new = history[:, -1].clone()
-        predicted = simulator.next_positions(graph, (sub_senders, sub_receivers))
+        predicted, rest_logits = simulator.step(graph, (sub_senders, sub_receivers))
+        if rest_logits is not None:  # a displaced particle the rest head calls at rest stays where it is
+            last = history[ids, -1]
+            resting = (rest_logits > 0) & ((last - origin[ids]).norm(dim=1) > settings.rest_displacement)
+            predicted = torch.where(resting[:, None], last, predicted)
         # the walls and the floor are rigid: a particle the network moves past one stays on it
         inside = torch.maximum(torch.minimum(predicted, bounds[:, 1]), bounds[:, 0])
         pushed_back = (inside != predicted).any(1)

@@ -37,6 +37,8 @@ class ModelSettings:
     radius_m: float = 4.0
     acceleration_features: bool = False  # also the history's accelerations, normalised as the targets are
     static_features: bool = False  # also where each particle started (static_features)
+    rest_head: bool = False  # also the logit that a particle is at rest after the step (it moves under rest_m)
+    rest_m: float = 0.01  # the step's displacement under which a particle is at rest (the rest head's label)
 
 
 @dataclass
@@ -126,7 +128,7 @@ class LearnedSimulator(nn.Module):
         self.network = EncodeProcessDecode(
             node_features,
             3,
-            2,
+            3 if settings.rest_head else 2,
             settings.latent_size,
             settings.mlp_width,
             settings.mlp_hidden_layers,
@@ -164,7 +166,8 @@ class LearnedSimulator(nn.Module):
         return nodes, edges
 
     def forward(self, graph: GraphInput, edges: tuple[torch.Tensor, torch.Tensor] | None = None) -> torch.Tensor:
-        """Normalised acceleration [N, 2] of every particle."""
+        """Normalised acceleration [N, 2] of every particle; with the rest head a third column, the logit that the
+        particle is at rest after the step."""
         senders, receivers = (
             edges if edges is not None else radius_graph(graph.positions[:, -1], graph.batch, self.settings.radius_m)
         )
@@ -173,9 +176,20 @@ class LearnedSimulator(nn.Module):
 
     def next_positions(self, graph: GraphInput, edges: tuple[torch.Tensor, torch.Tensor] | None = None) -> torch.Tensor:
         """Semi-implicit Euler with dt = 1 frame: v' = v + a, x' = x + v'."""
-        acceleration = self(graph, edges) * self.acceleration_std + self.acceleration_mean
+        return self.step(graph, edges)[0]
+
+    def step(
+        self, graph: GraphInput, edges: tuple[torch.Tensor, torch.Tensor] | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """:meth:`next_positions` and the rest head's logits [N] (None without the head)."""
+        output = self(graph, edges)
+        acceleration = output[:, :2] * self.acceleration_std + self.acceleration_mean
         velocity = graph.positions[:, -1] - graph.positions[:, -2] + acceleration
-        return graph.positions[:, -1] + velocity
+        return graph.positions[:, -1] + velocity, output[:, 2] if self.settings.rest_head else None
+
+    def at_rest(self, previous: torch.Tensor, following: torch.Tensor) -> torch.Tensor:
+        """The rest head's label [N]: 1 where a particle moves less than ``rest_m`` from ``previous`` to ``following``."""
+        return ((following - previous).norm(dim=1) < self.settings.rest_m).to(following.dtype)
 
 
 def random_walk_noise(
@@ -212,8 +226,18 @@ class OneStepLoss(nn.Module):
         noisy = graph.moved_to(graph.positions + noise)
         # the target keeps the clean next position moved by the last noise step: only velocities are noised
         target_normalized = self.normalized_target(noisy, target + noise[:, -1])
-        error = (self.simulator(noisy) - target_normalized).pow(2).sum(dim=1)
-        return self._graph_mean(error, graph, self.weights(graph, target))
+        output = self.simulator(noisy)
+        error = (output[:, :2] - target_normalized).pow(2).sum(dim=1)
+        loss = self._graph_mean(error, graph, self.weights(graph, target))
+        if self.simulator.settings.rest_head:
+            loss = loss + self.rest_loss(output[:, 2], graph.positions[:, -1], target, graph)
+        return loss
+
+    def rest_loss(self, logits: torch.Tensor, previous: torch.Tensor, following: torch.Tensor, graph: GraphInput):
+        """The rest head's binary cross-entropy against the clean step from ``previous`` to ``following``, averaged
+        per graph then over graphs."""
+        label = self.simulator.at_rest(previous, following)
+        return self._graph_mean(nn.functional.binary_cross_entropy_with_logits(logits, label, reduction="none"), graph)
 
     def mean_predictor(self, graph: GraphInput, target: torch.Tensor) -> torch.Tensor:
         """The loss of always predicting the mean acceleration (0 normalised), noise-free: the baseline."""
@@ -254,15 +278,19 @@ class RolloutLoss(OneStepLoss):
     rollout is. Step k is scored by its position error over k(k + 1)/2, in units of the acceleration's spread: the
     mean acceleration error over the first k steps, which for k = 1 is the one-step loss's error and which a bias
     the model keeps step after step (a deposit that does not come to rest) cannot average away. The loss is the mean
-    over the steps, each normalised error clipped at ``target_clip``."""
+    over the steps, each normalised error clipped at ``target_clip``; with the rest head each step adds the head's
+    cross-entropy against the clean step (:meth:`OneStepLoss.rest_loss`)."""
 
     def forward(self, graph: GraphInput, targets: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
         sim = self.simulator
         positions = graph.positions + noise
+        clean = torch.cat([graph.positions[:, -1:], targets], dim=1)  # the rest head's labels: the clean steps
         targets = targets + noise[:, -1:]  # as OneStepLoss's: the noise's last offset is kept, its velocity undone
         total = torch.zeros((), device=positions.device)
         for k in range(targets.shape[1]):
-            following = sim.next_positions(graph.moved_to(positions))
+            following, logits = sim.step(graph.moved_to(positions))
+            if logits is not None:
+                total = total + self.rest_loss(logits, clean[:, k], clean[:, k + 1], graph)
             following = torch.maximum(torch.minimum(following, sim.bounds[:, 1]), sim.bounds[:, 0])
             error = (following - targets[:, k]) / (sim.acceleration_std * (k + 1) * (k + 2) / 2)
             if self.target_clip:
