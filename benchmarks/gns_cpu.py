@@ -141,16 +141,20 @@ def dev_runs(path: Path, history: int) -> tuple[WindowSampler, list[np.ndarray],
 
 
 @torch.no_grad()
-def evaluate(model_path: Path, dev: list[Path]) -> dict:
+def evaluate(model_path: Path, dev: list[Path], rest_gate: bool = True) -> dict:
     """R², NRMSE and relative bias of R, V, I per development set and pooled over all ("all"), rolled out from the
-    first frames; each run's MPM and GNS values kept ("runs")."""
+    first frames (``rest_gate``: as RolloutSettings'); each run's MPM and GNS values kept ("runs")."""
     simulator = load_simulator(model_path)
     out, pooled = {}, {"mpm": [], "gns": []}
     for path in dev:
         sampler, truths, friction = dev_runs(path, simulator.settings.history)
         began = time.perf_counter()
         results = rollout_soil(
-            simulator, truths, friction, sampler.frames, RolloutSettings(early_stop=True, keep="ends")
+            simulator,
+            truths,
+            friction,
+            sampler.frames,
+            RolloutSettings(early_stop=True, keep="ends", rest_gate=rest_gate),
         )
         seconds = time.perf_counter() - began
         mpm = [metrics_of(t[0], t[-1], v) for t, v in zip(truths, sampler.volume_m2)]
@@ -310,13 +314,15 @@ def averaged_checkpoint(paths: list[Path], out: Path) -> Path:
 
 def write_checkpoints(args: argparse.Namespace, command: str) -> None:
     """Each of ``--model``'s checkpoints (and their weights' average with ``--average``) evaluated on ``--dev`` as
-    :func:`evaluate` does, as ``--out``.json."""
+    :func:`evaluate` does, as ``--out``.json; with ``--without-rest-gate`` each also with its rest head ignored."""
     models = {str(path): path for path in args.model}
     if args.average:
         models["average"] = averaged_checkpoint(args.model, args.out.with_suffix(".average.pt"))
     record: dict = {"command": command, "commit": commit(), "models": {}}
-    for name, path in models.items():
-        record["models"][name] = evaluate(path, args.dev)
+    runs = [(name, path, True) for name, path in models.items()]
+    runs += [(f"{name} without the rest gate", path, False) for name, path in models.items() if args.without_rest_gate]
+    for name, path, gate in runs:
+        record["models"][name] = evaluate(path, args.dev, gate)
         row = {k: v["runout_m"] for k, v in record["models"][name].items()}
         print(json.dumps({"model": name} | row), flush=True)
         args.out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
@@ -406,6 +412,9 @@ def main() -> None:
     parser.add_argument("action", choices=["sets", "train", "report", "timeline", "checkpoints"])
     parser.add_argument("--model", type=Path, nargs="+", help="timeline, checkpoints: the checkpoints to roll out")
     parser.add_argument("--average", action="store_true", help="checkpoints: also their weights' average")
+    parser.add_argument(
+        "--without-rest-gate", action="store_true", help="checkpoints: also each with its rest head ignored"
+    )
     parser.add_argument("--frames-every", type=int, default=10, help="timeline: frames between records")
     parser.add_argument("--out", type=Path, help="report: the result files' path without suffix")
     parser.add_argument("--coarser", type=Path, help="report: a sets work folder of coarser nodes, to compare")

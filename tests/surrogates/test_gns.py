@@ -751,3 +751,6 @@ def test_a_rollout_holds_a_displaced_particle_the_rest_head_calls_at_rest_and_le
     assert all(sliding[f - 1, k] <= 0.1 < sliding[f, k] for k, f in enumerate(first_held))  # and not before
     resting = moved[:, 5:].max(axis=0) <= 0.1
     assert resting.any() and not np.all(positions[-1, 5:][resting] == start[-1, 5:][resting])  # untrained: drift
+    ignored = RolloutSettings(rest_displacement=0.1, rest_gate=False)
+    free = rollout(simulator, [start], types, friction, SMALL.history + 12, ignored)[0].positions
+    assert not np.any(np.all(free[-2:, :5] == free[-1, :5], axis=(0, 2)))  # the head ignored: none held

@@ -49,6 +49,7 @@ class RolloutSettings:
     domain_margin_m: float = 5.0
     keep: str = "all"
     warmup_frames: int = 0  # MPM frames a soil rollout starts from (at least history + 1)
+    rest_gate: bool = True  # a simulator's rest head holds displaced particles it calls at rest (False: ignored)
 
     def __post_init__(self) -> None:
         check_keep(self.keep)
@@ -144,7 +145,8 @@ def rollout(
         graph = GraphInput(history, types, friction, batch, n_graphs, static).subset(ids)
         new = history[:, -1].clone()
         predicted, rest_logits = simulator.step(graph, (sub_senders, sub_receivers))
-        if rest_logits is not None:  # a displaced particle the rest head calls at rest stays where it is
+        # a displaced particle the rest head calls at rest stays where it is
+        if rest_logits is not None and settings.rest_gate:
             last = history[ids, -1]
             resting = (rest_logits > 0) & ((last - origin[ids]).norm(dim=1) > settings.rest_displacement)
             predicted = torch.where(resting[:, None], last, predicted)
