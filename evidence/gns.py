@@ -157,6 +157,7 @@ VARIANTS = (  # gns_cpu.json with one change each, or a change and the data
     "gns_cpu_roll4.json",
     "gns_cpu_roll4_8k.json",
     "gns_cpu_1000.json",
+    "gns_cpu_rest.json",
 )
 RANKED = (
     "gns_cpu_data.json",
@@ -164,6 +165,7 @@ RANKED = (
     "gns_cpu_roll4.json",
     "gns_cpu_roll4_8k.json",
     "gns_cpu_1000.json",
+    "gns_cpu_rest.json",
 )  # variants whose ranking the page shows
 UNRECORDED = {  # what a record made before a key existed ran with
     "ema_decay": 0.0,
@@ -335,4 +337,29 @@ def gns_checkpoints() -> str:
         label = "their weights' average" if name == "average" else f"`{name.rsplit('/', 1)[-1]}`"
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", f"`{record['command']}`; `benchmarks/results/gns_cpu_checkpoints.json` {made_note(record)}."]
+    return "\n".join(lines)
+
+
+def gns_rest_gate() -> str:
+    """docs/gns-training.md: one checkpoint of the rest-head training rolled out with its rest head holding deposits
+    and with the head ignored (gns_cpu_rest_gate.json): per set, runout R², R's and the moved volume's relative bias."""
+    record = result("gns_cpu_rest_gate.json")
+    models = record["models"]
+    sets = [name for name in next(iter(models.values())) if name != "all"]
+    lines = [
+        "| rollout | " + " | ".join(f"{name}: R² | R bias | V bias" for name in sets) + " |",
+        "|---|" + "---|---:|---:|" * len(sets),
+    ]
+    for name, evaluated in models.items():
+        cells = [
+            cell
+            for case in sets
+            for cell in [
+                *runout_cells(evaluated[case]["runout_m"]),
+                f"{evaluated[case]['volume_m2']['relative_bias']:+.0%}",
+            ]
+        ]
+        label = "rest head ignored" if name.endswith("without the rest gate") else "rest head holding"
+        lines.append(f"| `{name.split(' ')[0].rsplit('/', 1)[-1]}`, {label} | " + " | ".join(cells) + " |")
+    lines += ["", f"`{record['command']}`; `benchmarks/results/gns_cpu_rest_gate.json` {made_note(record)}."]
     return "\n".join(lines)
