@@ -322,44 +322,48 @@ def gns_timeline() -> str:
     return "\n".join(lines)
 
 
-def gns_checkpoints() -> str:
-    """docs/gns-training.md: checkpoints of one training and their weights' average on the development sets
-    (gns_cpu_checkpoints.json): runout R² and relative bias per set."""
-    record = result("gns_cpu_checkpoints.json")
+def evaluations_table(file: str, heading: str, columns: list[str], cells, label) -> str:
+    """A gns_cpu ``checkpoints`` record (``file``) as a table: a row per evaluated model (``label(name)``), per
+    development set the ``columns`` that ``cells(evaluation of the set)`` fills; the command and record below."""
+    record = result(file)
     models = record["models"]
     sets = [name for name in next(iter(models.values())) if name != "all"]
     lines = [
-        "| checkpoint | " + " | ".join(f"{name}: R² | bias" for name in sets) + " |",
-        "|---|" + "---|---:|" * len(sets),
+        f"| {heading} | " + " | ".join(" | ".join([f"{name}: {columns[0]}", *columns[1:]]) for name in sets) + " |",
+        "|---|" + ("---|" + "---:|" * (len(columns) - 1)) * len(sets),
     ]
     for name, evaluated in models.items():
-        cells = [cell for case in sets for cell in runout_cells(evaluated[case]["runout_m"])]
-        label = "their weights' average" if name == "average" else f"`{name.rsplit('/', 1)[-1]}`"
-        lines.append(f"| {label} | " + " | ".join(cells) + " |")
-    lines += ["", f"`{record['command']}`; `benchmarks/results/gns_cpu_checkpoints.json` {made_note(record)}."]
+        row = [cell for case in sets for cell in cells(evaluated[case])]
+        lines.append(f"| {label(name)} | " + " | ".join(row) + " |")
+    lines += ["", f"`{record['command']}`; `benchmarks/results/{file}` {made_note(record)}."]
     return "\n".join(lines)
+
+
+def gns_checkpoints() -> str:
+    """docs/gns-training.md: checkpoints of one training and their weights' average on the development sets
+    (gns_cpu_checkpoints.json): runout R² and relative bias per set."""
+    return evaluations_table(
+        "gns_cpu_checkpoints.json",
+        "checkpoint",
+        ["R²", "bias"],
+        lambda evaluated: runout_cells(evaluated["runout_m"]),
+        lambda name: "their weights' average" if name == "average" else f"`{name.rsplit('/', 1)[-1]}`",
+    )
 
 
 def gns_rest_gate() -> str:
     """docs/gns-training.md: one checkpoint of the rest-head training rolled out with its rest head holding deposits
     and with the head ignored (gns_cpu_rest_gate.json): per set, runout R², R's and the moved volume's relative bias."""
-    record = result("gns_cpu_rest_gate.json")
-    models = record["models"]
-    sets = [name for name in next(iter(models.values())) if name != "all"]
-    lines = [
-        "| rollout | " + " | ".join(f"{name}: R² | R bias | V bias" for name in sets) + " |",
-        "|---|" + "---|---:|---:|" * len(sets),
-    ]
-    for name, evaluated in models.items():
-        cells = [
-            cell
-            for case in sets
-            for cell in [
-                *runout_cells(evaluated[case]["runout_m"]),
-                f"{evaluated[case]['volume_m2']['relative_bias']:+.0%}",
-            ]
-        ]
-        label = "rest head ignored" if name.endswith("without the rest gate") else "rest head holding"
-        lines.append(f"| `{name.split(' ')[0].rsplit('/', 1)[-1]}`, {label} | " + " | ".join(cells) + " |")
-    lines += ["", f"`{record['command']}`; `benchmarks/results/gns_cpu_rest_gate.json` {made_note(record)}."]
-    return "\n".join(lines)
+    return evaluations_table(
+        "gns_cpu_rest_gate.json",
+        "rollout",
+        ["R²", "R bias", "V bias"],
+        lambda evaluated: [
+            *runout_cells(evaluated["runout_m"]),
+            f"{evaluated['volume_m2']['relative_bias']:+.0%}",
+        ],
+        lambda name: (
+            f"`{name.split(' ')[0].rsplit('/', 1)[-1]}`, "
+            + ("rest head ignored" if name.endswith("without the rest gate") else "rest head holding")
+        ),
+    )

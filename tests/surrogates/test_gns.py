@@ -509,9 +509,9 @@ def test_early_stop_ends_a_realization_at_rest_and_repeats_its_last_frame(tiny_d
     assert result.positions.shape[0] == SMALL.history + 20
 
 
-def _brief_training(dataset: dict, directory: Path, steps: int, **changes) -> dict:
-    """The small model trained ``steps`` steps on two windows a step with ``changes`` to the settings, one checkpoint
-    at the end and one held-out rollout: the summary."""
+def _brief_training(dataset: dict, directory: Path, steps: int, model: ModelSettings = SMALL, **changes) -> dict:
+    """``model`` (the small one) trained ``steps`` steps on two windows a step with ``changes`` to the settings, one
+    checkpoint at the end and one held-out rollout: the summary."""
     settings = TrainSettings(
         steps=steps,
         batch_graphs=2,
@@ -521,7 +521,7 @@ def _brief_training(dataset: dict, directory: Path, steps: int, **changes) -> di
         selection_trajectories=1,
         **changes,
     )
-    return train(SMALL, settings, dataset["train"], dataset["valid"], directory)
+    return train(model, settings, dataset["train"], dataset["valid"], directory)
 
 
 def test_pushforward_trains_on_the_model_s_own_prediction(tiny_dataset, tmp_path):
@@ -695,18 +695,7 @@ def test_the_rest_head_learns_when_the_blocks_stop(tiny_dataset, tmp_path):
     better than always answering the commoner label; its loss is the one-step loss plus the head's cross-entropy."""
     torch.manual_seed(5)
     model = replace(SMALL, rest_head=True)
-    settings = TrainSettings(
-        steps=300,
-        batch_graphs=2,
-        learning_rate=3e-3,
-        noise_std=0.0,
-        smoothing_frames=0.0,
-        log_every=50,
-        validate_every=10_000,
-        checkpoint_every=300,
-        selection_trajectories=1,
-    )
-    train(model, settings, tiny_dataset["train"], tiny_dataset["valid"], tmp_path)
+    _brief_training(tiny_dataset, tmp_path, 300, model, learning_rate=3e-3, noise_std=0.0, smoothing_frames=0.0)
     simulator = load_simulator(tmp_path / "gns.pt")
     sampler = WindowSampler(tiny_dataset["valid"], SMALL.history)
     frames = sampler.frames_of(0, 0, sampler.frames)

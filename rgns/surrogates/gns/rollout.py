@@ -147,7 +147,7 @@ def rollout(
         predicted, rest_logits = simulator.step(graph, (sub_senders, sub_receivers))
         # a displaced particle the rest head calls at rest stays where it is
         if rest_logits is not None and settings.rest_gate:
-            last = history[ids, -1]
+            last = graph.positions[:, -1]
             resting = (rest_logits > 0) & ((last - origin[ids]).norm(dim=1) > settings.rest_displacement)
             predicted = torch.where(resting[:, None], last, predicted)
         # the walls and the floor are rigid: a particle the network moves past one stays on it
