@@ -24,8 +24,8 @@ PHASES = {  # phase: (the shipped line that starts it, the same line switched of
         "            if _ == 0:\n                outside[b] += _factors(",
     ),
     "p2g": (
-        "            for s in range(slots):  # each array summed",
-        "            for s in range(0):  # each array summed",
+        "    for q in range(count):\n        p = p0 + q\n        particle_mass",
+        "    for q in range(0):\n        p = p0 + q\n        particle_mass",
     ),
     "strain": (
         "    for q in range(count):\n        lxx = 0.0",
@@ -36,8 +36,8 @@ PHASES = {  # phase: (the shipped line that starts it, the same line switched of
         "            yielding[:count] = False\n            if count < 0:\n                _trial_stresses(\n",
     ),
     "force": (
-        "            for s in range(slots):\n                r, c = _slot(s, slots)\n                _force_scatter(",
-        "            for s in range(0):\n                r, c = _slot(s, slots)\n                _force_scatter(",
+        "    for q in range(count):\n        a, b, t = stress[q",
+        "    for q in range(0):\n        a, b, t = stress[q",
     ),
     "g2p": (
         "    for q in range(count):\n        p = p0 + q\n        sum_ax",

@@ -64,8 +64,12 @@ def test_a_block_sliding_on_the_friction_floor_agrees_on_both_backends_with_bili
     assert_same_runs(kernels, reference)
 
 
-def test_a_damped_column_with_a_tension_cutoff_agrees_on_both_backends(tmp_path):
-    """Cundall damping, the tension cutoff and dilation in the return map, on a cell size that is no power of two."""
+def test_a_damped_column_with_a_tension_cutoff_agrees_on_both_backends_within_the_torch_engines_own_spread(tmp_path):
+    """Cundall damping, the tension cutoff and dilation in the return map, on a cell size that is no power of two.
+
+    Damping turns on the sign of each nodal velocity, so this run is chaotic at rounding level: the torch engine
+    itself moves its particles by about 1e-4 m when its start is nudged by 1e-13 m/s. The kernels (whose sums are
+    ordered otherwise) must stay within that spread of the torch engine, in positions and in stresses."""
     case = polygon_case(
         tmp_path / "column",
         [[0, 0], [3, 0], [3, 6], [0, 6]],
@@ -76,8 +80,18 @@ def test_a_damped_column_with_a_tension_cutoff_agrees_on_both_backends(tmp_path)
         dilation_deg=10.0,
         tension_cutoff_pa=500.0,
     )
-    kernels, reference = both([case], 1.5, early_stop=False)
-    assert_same_runs(kernels, reference)
+    (kernels,), (reference,) = both([case], 1.5, early_stop=False)
+    (nudged,) = run_batch(
+        [case],
+        EngineSettings(backend="torch", early_stop=False),
+        duration_s=1.5,
+        frame_interval_s=0.05,
+        initial_velocity=[np.tile([1e-13, 0.0], (len(case.positions), 1))],
+    )
+    assert (kernels.steps, kernels.status) == (reference.steps, reference.status) == (nudged.steps, nudged.status)
+    for name in ("positions", "final_stress"):
+        spread = np.abs(getattr(nudged, name) - getattr(reference, name)).max()
+        assert np.abs(getattr(kernels, name) - getattr(reference, name)).max() <= spread, name
 
 
 def test_auto_picks_the_kernels_on_the_cpu_in_float64_and_torch_otherwise():

@@ -8,7 +8,6 @@ kernel at 1 m). numba is imported on first use, so a run on the torch backend ne
 
 from __future__ import annotations
 
-import math
 import time
 from typing import Any
 
@@ -33,10 +32,7 @@ class FrameKernels:
 
         self._kernels: Any = kernels  # numba dispatchers: their arguments are typed at the call
         grid, region = basis.grid, basis.region
-        exact_inverse = 1.0 / grid.h if math.frexp(grid.h)[0] == 0.5 else 0.0  # x / h == x * (1 / h) exactly
-        self.grid = np.array(
-            [*grid.origin, grid.h, *region.lower, *region.cells, *grid.cells, exact_inverse], dtype=np.float64
-        )
+        self.grid = np.array([*grid.origin, grid.h, *region.lower, *region.cells, *grid.cells], dtype=np.float64)
         self.spline = isinstance(basis, ClampedBSplineBasis)
         self.constraints = tuple(
             getattr(boundary, name).cpu().numpy() for name in ("fixed_x", "fixed_y", "floor", "friction")

@@ -1,15 +1,16 @@
 """The explicit MPM step of :mod:`rgns.engines.mpm.step` as compiled CPU kernels (numba), a frame per call.
 
-The same scheme, the same arithmetic in the same order: every product, sum and branch of the torch step
-is written out per particle, and the scatters sum each node's contributions in the order of torch's
-``scatter_add_`` over the flattened [K, P] slots (slot first, then particle), so a run agrees with the
-torch engine to rounding (torch's CPU ``sqrt`` is not always correctly rounded; numba's is). A call
-advances every realization of a batch by its own substeps of one frame, one realization after another
-(they never share a node), so no Python runs between substeps. The grid is cleared and updated only over the
-box of rows and columns the particles reach (no other node is read). A particle's weights are held as its first
-DOF and the 1-D factors along each axis (12 numbers, not a weight, a gradient and an id per slot: under half the
-memory), each slot's weight and gradient formed where it is used, the same products as the torch basis. Serial
-``@njit(cache=True)``: no threading layer beside torch's OpenMP, and a fresh process loads the compiled kernel from
+The same scheme as the torch step, written per particle, with floating-point sums free to be reordered
+(``FAST``: reassociation, fused multiply-adds, reciprocals; NaN and infinity kept as IEEE, which the divergence
+checks read): the scatters run particle by particle, gravity enters a node as its mass times g, and a particle's
+stress is scaled by its volume once, not per node. A run agrees with the torch engine to rounding (final
+stresses within about 1e-12 of the largest after thousands of steps; R, V, I identical on the reference
+realizations: benchmarks/results/engine_backends.md). A call advances every realization of a batch by its own
+substeps of one frame, one realization after another (they never share a node), so no Python runs between
+substeps. The grid is cleared and updated only over the box of rows and columns the particles reach (no other node
+is read). A particle's weights are held as its first DOF and the 1-D factors along each axis (12 numbers, not a
+weight, a gradient and an id per slot), each slot's weight and gradient formed where it is used. Serial
+``@njit(fastmath=FAST, cache=True)``: no threading layer beside torch's OpenMP, and a fresh process loads the compiled kernel from
 the cache (``__pycache__`` beside this file, or ``NUMBA_CACHE_DIR``).
 """
 
@@ -19,9 +20,10 @@ import numpy as np
 from numba import njit
 
 MASS_TOLERANCE = 1e-15  # as rgns.engines.mpm.step
+FAST = {"reassoc", "contract", "nsz", "arcp"}  # no "nnan" or "ninf": the checks read NaN and infinity
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _maximum(a: float, b: float) -> float:
     """torch.maximum: NaN if either is NaN."""
     if a != a or b != b:
@@ -29,7 +31,7 @@ def _maximum(a: float, b: float) -> float:
     return a if a >= b else b
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _minimum(a: float, b: float) -> float:
     """torch.minimum: NaN if either is NaN."""
     if a != a or b != b:
@@ -37,7 +39,7 @@ def _minimum(a: float, b: float) -> float:
     return a if a <= b else b
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _sign(a: float) -> float:
     if a > 0.0:
         return 1.0
@@ -46,18 +48,12 @@ def _sign(a: float) -> float:
     return a * 0.0  # ±0 stays 0, NaN stays NaN
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _clamp(a: float, low: float, high: float) -> float:
     return _minimum(_maximum(a, low), high)
 
 
-@njit(cache=True, inline="always")
-def _per_h(a: float, h: float, inverse_h: float) -> float:
-    """a / h, as a product where that is exact (``inverse_h`` = 1 / h for h a power of two, else 0)."""
-    return a * inverse_h if inverse_h != 0.0 else a / h
-
-
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _finite_or_zero(a: float) -> float:
     """nan_to_num(a, 0, 0, 0)."""
     if a != a or a == np.inf or a == -np.inf:
@@ -65,7 +61,7 @@ def _finite_or_zero(a: float) -> float:
     return a
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _factor_loop(x, y, grid, base, factors, box, spline):
     """:func:`_factors` for one basis (``spline``, a literal at each call, so that the loop holds no branch and
     vectorises; it divides by h as torch does: a vector division costs little here)."""
@@ -96,7 +92,7 @@ def _factor_loop(x, y, grid, base, factors, box, spline):
     return outside
 
 
-@njit(cache=True)
+@njit(fastmath=FAST, cache=True)
 def _factors(x, y, grid, spline, base, factors, box):
     """Each particle's first DOF and the 1-D factors of its weights (shape.py's bases; ``grid`` as
     :func:`advance_frame`'s; ``x``, ``y`` one realization's): rows 0-2 wx, 3-5 ∂wx, 6-8 wy, 9-11 ∂wy along its
@@ -109,76 +105,19 @@ def _factors(x, y, grid, spline, base, factors, box):
     return _factor_loop(x, y, grid, base, factors, box, False)
 
 
-@njit(cache=True, inline="always")
-def _slot(s, slots):
-    """The DOF row and column (from the particle's first DOF) of slot s, in the torch basis's slot order: row by row
-    for the spline's 9; the cell's corners anticlockwise, (0, 0), (0, 1), (1, 1), (1, 0), for the bilinear 4."""
-    if slots == 9:
-        return s // 3, s % 3
-    return s // 2, (s % 2) ^ (s // 2)
-
-
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _weight(factors, r, c, q):
     """Slot (r, c)'s weight of particle q: wy·wx, as the torch basis forms it."""
     return factors[6 + r, q] * factors[c, q]
 
 
-@njit(cache=True, inline="always")
-def _gradient(factors, r, c, q, h, inverse_h):
+@njit(fastmath=FAST, cache=True, inline="always")
+def _gradient(factors, r, c, q, inverse_h):
     """Slot (r, c)'s weight gradient of particle q: (wy·∂wx, ∂wy·wx) / h, as the torch basis forms it."""
-    gx = _per_h(factors[6 + r, q] * factors[3 + c, q], h, inverse_h)
-    gy = _per_h(factors[9 + r, q] * factors[c, q], h, inverse_h)
-    return gx, gy
+    return factors[6 + r, q] * factors[3 + c, q] * inverse_h, factors[9 + r, q] * factors[c, q] * inverse_h
 
 
-@njit(cache=True, inline="always")
-def _scatter3(r, c, row, base, factors, particle_mass, vx, vy, mass, momentum_x, momentum_y):
-    """mass[n] += w m, momentum[n] += w m v over slot (r, c)'s particles in order (its DOF r rows and c columns from
-    each particle's first, ``row`` DOFs a row). A node's running sums stay in registers while consecutive particles
-    share it: the same additions in the same order, no store and reload between them."""
-    offset = r * row + c
-    current = -1
-    m = mx = my = 0.0
-    for q in range(len(vx)):
-        n = base[q] + offset
-        if n != current:
-            if current >= 0:
-                mass[current], momentum_x[current], momentum_y[current] = m, mx, my
-            current = n
-            m, mx, my = mass[n], momentum_x[n], momentum_y[n]
-        weighted = _weight(factors, r, c, q) * particle_mass[q]
-        m += weighted
-        mx += weighted * vx[q]
-        my += weighted * vy[q]
-    if current >= 0:
-        mass[current], momentum_x[current], momentum_y[current] = m, mx, my
-
-
-@njit(cache=True, inline="always")
-def _force_scatter(r, c, row, base, factors, h, inverse_h, stress, count, gravity_x, gravity_y, force_x, force_y):
-    """force[n] += −v (σ · ∇w) + w m g over slot (r, c)'s first ``count`` particles in order, as :func:`_scatter3`;
-    ``stress`` [P, 5]: each particle's σxx, σyy, τxy, −v and m side by side (one stream to read, not five)."""
-    offset = r * row + c
-    current = -1
-    a = b = 0.0
-    for q in range(count):
-        n = base[q] + offset
-        if n != current:
-            if current >= 0:
-                force_x[current], force_y[current] = a, b
-            current = n
-            a, b = force_x[n], force_y[n]
-        gx, gy = _gradient(factors, r, c, q, h, inverse_h)
-        sxx, syy, txy, minus_v = stress[q, 0], stress[q, 1], stress[q, 2], stress[q, 3]
-        weighted = _weight(factors, r, c, q) * stress[q, 4]
-        a += minus_v * (sxx * gx + txy * gy) + weighted * gravity_x
-        b += minus_v * (txy * gx + syy * gy) + weighted * gravity_y
-    if current >= 0:
-        force_x[current], force_y[current] = a, b
-
-
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _quadratic(t, n):
     """shape.clamped_quadratic_1d at one point: weights, derivatives of DOFs c, c + 1, c + 2, and c. Every piece is
     formed and one chosen (selects, not branches), the same products as the torch basis."""
@@ -201,7 +140,7 @@ def _quadratic(t, n):
     return w0, w1, w2, d0, d1, d2, c
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _linear(t, n):
     """LinearBasis along one axis at one point (t in cells from the mesh origin): weights and derivatives of
     nodes c and c + 1, and c."""
@@ -210,7 +149,7 @@ def _linear(t, n):
     return 1 - xi, xi, -1.0, 1.0, c
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _principal_return(s1, s2, s3, k, sigma_c, lame_lambda, shear_modulus, m):
     """mohr_coulomb._principal_return for one stress: the returned principal stresses."""
     lam_trace = lame_lambda * (m - 1)
@@ -239,7 +178,7 @@ def _principal_return(s1, s2, s3, k, sigma_c, lame_lambda, shear_modulus, m):
     return apex_value, apex_value, apex_value
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _trial(sxx, syy, szz, txy, dxx, dyy, dxy, g, lame_lambda):
     """mohr_coulomb.elastic_increment added to one particle's stress: the trial (σxx, σyy, σzz, τxy)."""
     volumetric = lame_lambda * (dxx + dyy)
@@ -250,7 +189,7 @@ def _trial(sxx, syy, szz, txy, dxx, dyy, dxy, g, lame_lambda):
     return t_xx, t_yy, t_zz, t_xy
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _circle(t_xx, t_yy, t_zz, t_xy):
     """The trial's Mohr circle in the plane and its extreme principal stresses s1 ≥ s3 with σzz."""
     centre = 0.5 * (t_xx + t_yy)
@@ -261,7 +200,7 @@ def _circle(t_xx, t_yy, t_zz, t_xy):
     return half_difference, radius, a, b, s1, s3
 
 
-@njit(cache=True)
+@njit(fastmath=FAST, cache=True)
 def _trial_stresses(
     sxx,
     syy,
@@ -292,7 +231,7 @@ def _trial_stresses(
         volume[q] = volume[q] * (1.0 + dxx + dyy)
 
 
-@njit(cache=True, inline="always")
+@njit(fastmath=FAST, cache=True, inline="always")
 def _returned(t_xx, t_yy, t_zz, t_xy, shear_modulus, lame_lambda, k, m, sigma_c, tension_cutoff):
     """mohr_coulomb.return_map of a yielding trial: the stress returned to the surface and the tension cutoff."""
     g = shear_modulus
@@ -315,19 +254,49 @@ def _returned(t_xx, t_yy, t_zz, t_xy, shear_modulus, lame_lambda, k, m, sigma_c,
     return centre + half * cos2, centre - half * cos2, new_z, half * sin2
 
 
-@njit(cache=True, inline="always")
-def _strains(slots, count, row, base, factors, h, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy):
-    """Each particle's strain increments from the nodal velocities (four sums, each over the slots in order);
-    ``slots`` a literal at each call, so that the sums over it are unrolled; ``row``: DOFs in a row."""
+@njit(fastmath=FAST, cache=True, inline="always")
+def _p2g(width, p0, count, row, base, factors, mass, vx, vy, node_mass, momentum_x, momentum_y):
+    """mass[n] += w m, momentum[n] += w m v, particle by particle over its width × width DOFs (``width`` a literal
+    at each call, so that the loop over them is unrolled; ``row``: DOFs in a row)."""
+    for q in range(count):
+        p = p0 + q
+        particle_mass, particle_vx, particle_vy = mass[p], vx[p], vy[p]
+        for s in range(width * width):
+            r, c = s // width, s % width
+            n = base[q] + r * row + c
+            weighted = _weight(factors, r, c, q) * particle_mass
+            node_mass[n] += weighted
+            momentum_x[n] += weighted * particle_vx
+            momentum_y[n] += weighted * particle_vy
+
+
+@njit(fastmath=FAST, cache=True, inline="always")
+def _internal_force(width, count, row, base, factors, inverse_h, stress, force_x, force_y):
+    """force[n] += −v (σ · ∇w), particle by particle as :func:`_p2g`; ``stress`` [P, 3]: each particle's −v σxx,
+    −v σyy, −v τxy."""
+    for q in range(count):
+        a, b, t = stress[q, 0], stress[q, 1], stress[q, 2]
+        for s in range(width * width):
+            r, c = s // width, s % width
+            n = base[q] + r * row + c
+            gx, gy = _gradient(factors, r, c, q, inverse_h)
+            force_x[n] += a * gx + t * gy
+            force_y[n] += t * gx + b * gy
+
+
+@njit(fastmath=FAST, cache=True, inline="always")
+def _strains(width, count, row, base, factors, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy):
+    """Each particle's strain increments from the nodal velocities (four sums over its DOFs; ``width`` as
+    :func:`_p2g`)."""
     for q in range(count):
         lxx = 0.0
         lyy = 0.0
         lxy = 0.0
         lyx = 0.0
-        for s in range(slots):
-            r, c = _slot(s, slots)
+        for s in range(width * width):
+            r, c = s // width, s % width
             n = base[q] + r * row + c
-            gx, gy = _gradient(factors, r, c, q, h, inverse_h)
+            gx, gy = _gradient(factors, r, c, q, inverse_h)
             lxx += node_vx[n] * gx
             lyy += node_vy[n] * gy
             lxy += node_vx[n] * gy
@@ -335,17 +304,17 @@ def _strains(slots, count, row, base, factors, h, inverse_h, node_vx, node_vy, d
         strain_xx[q], strain_yy[q], strain_xy[q] = dt * lxx, dt * lyy, dt * (lxy + lyx)
 
 
-@njit(cache=True, inline="always")
-def _g2p(slots, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy):
-    """FLIP velocities (blended with PIC), positions with the new nodal velocities; ``slots`` as :func:`_strains`."""
+@njit(fastmath=FAST, cache=True, inline="always")
+def _g2p(width, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy):
+    """FLIP velocities (blended with PIC), positions with the new nodal velocities; ``width`` as :func:`_p2g`."""
     for q in range(count):
         p = p0 + q
         sum_ax = 0.0
         sum_ay = 0.0
         pic_x = 0.0
         pic_y = 0.0
-        for s in range(slots):
-            r, c = _slot(s, slots)
+        for s in range(width * width):
+            r, c = s // width, s % width
             n = base[q] + r * row + c
             ws = _weight(factors, r, c, q)
             sum_ax += ws * node_ax[n]
@@ -362,7 +331,7 @@ def _g2p(slots, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy,
         y[p] = y[p] + dt * pic_y
 
 
-@njit(cache=True)
+@njit(fastmath=FAST, cache=True)
 def advance_frame(
     x,
     y,
@@ -397,13 +366,11 @@ def advance_frame(
 ):
     """Advance realization b (particles starts[b]..starts[b + 1]) by substeps[b] steps of dts[b], in place.
 
-    ``grid``: origin x, y, cell h, region lower x, y, region cells nx, ny, mesh cells nx, ny, 1 / h where h is a
-    power of two (0 otherwise: divide, as torch does); the basis is the
+    ``grid``: origin x, y, cell h, region lower x, y, region cells nx, ny, mesh cells nx, ny; the basis is the
     clamped quadratic B-spline (``spline``) or the bilinear cell; ``fixed_x`` … ``friction`` are the
     constraints of one realization's DOFs. ``outside[b]`` counts particle steps out of the region.
     """
     n_nodes = fixed_x.shape[0]
-    slots = 9 if spline else 4
     largest = 0
     for b in range(len(substeps)):
         largest = max(largest, starts[b + 1] - starts[b])
@@ -412,7 +379,7 @@ def advance_frame(
     strain_xx = np.empty(largest)
     strain_yy = np.empty(largest)
     strain_xy = np.empty(largest)
-    stress = np.empty((largest, 5))
+    stress = np.empty((largest, 3))
     yielding = np.empty(largest, dtype=np.bool_)
     node_mass = np.empty(n_nodes)
     inverse_mass = np.empty(n_nodes)
@@ -426,39 +393,36 @@ def advance_frame(
     new_vy = np.empty(n_nodes)
     box = np.empty(4, dtype=np.int64)
     row = int(grid[5]) + 2 if spline else int(grid[7]) + 1  # DOFs in a row
-    h, inverse_h = grid[2], grid[9]
+    inverse_h = 1.0 / grid[2]
     for b in range(len(substeps)):
         p0, p1 = starts[b], starts[b + 1]
         count = p1 - p0
         dt = dts[b]
         for _ in range(substeps[b]):
             outside[b] += _factors(x[p0:p1], y[p0:p1], grid, spline, base, factors, box)
-            # p2g: nodal mass and momentum, slot by slot as torch's scatter_add_
+            # p2g: nodal mass and momentum
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
                     node_mass[n] = 0.0
                     force_x[n] = 0.0  # momentum first, forces later
                     force_y[n] = 0.0
-            for s in range(slots):  # each array summed slot by slot, particle by particle
-                r, c = _slot(s, slots)
-                _scatter3(r, c, row, base, factors, mass[p0:p1], vx[p0:p1], vy[p0:p1], node_mass, force_x, force_y)
+            if spline:
+                _p2g(3, p0, count, row, base, factors, mass, vx, vy, node_mass, force_x, force_y)
+            else:
+                _p2g(2, p0, count, row, base, factors, mass, vx, vy, node_mass, force_x, force_y)
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
                     inverse = 1.0 / node_mass[n] if node_mass[n] > MASS_TOLERANCE else 0.0
                     inverse_mass[n] = inverse
                     node_vx[n] = 0.0 if fixed_x[n] else force_x[n] * inverse
                     node_vy[n] = 0.0 if fixed_y[n] else force_y[n] * inverse
-                    force_x[n] = 0.0
-                    force_y[n] = 0.0
-            # strain increments from the nodal velocities (four sums, each over the slots in order)
+                    force_x[n] = node_mass[n] * gravity_x  # gravity, then the internal forces
+                    force_y[n] = node_mass[n] * gravity_y
+            # strain increments from the nodal velocities
             if spline:
-                _strains(
-                    9, count, row, base, factors, h, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy
-                )
+                _strains(3, count, row, base, factors, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy)
             else:
-                _strains(
-                    4, count, row, base, factors, h, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy
-                )
+                _strains(2, count, row, base, factors, inverse_h, node_vx, node_vy, dt, strain_xx, strain_yy, strain_xy)
             # the stress update and the new volume
             _trial_stresses(
                 sxx[p0:p1],
@@ -491,14 +455,13 @@ def advance_frame(
                         sigma_c[p],
                         tension_cutoff[p],
                     )
-                stress[q, 0], stress[q, 1], stress[q, 2] = sxx[p], syy[p], txy[p]
-                stress[q, 3], stress[q, 4] = -volume[p], mass[p]
-            # grid update: internal and gravity forces, made and summed slot by slot
-            for s in range(slots):
-                r, c = _slot(s, slots)
-                _force_scatter(
-                    r, c, row, base, factors, h, inverse_h, stress, count, gravity_x, gravity_y, force_x, force_y
-                )
+                minus_v = -volume[p]
+                stress[q, 0], stress[q, 1], stress[q, 2] = minus_v * sxx[p], minus_v * syy[p], minus_v * txy[p]
+            # grid update: the internal forces
+            if spline:
+                _internal_force(3, count, row, base, factors, inverse_h, stress, force_x, force_y)
+            else:
+                _internal_force(2, count, row, base, factors, inverse_h, stress, force_x, force_y)
             for j in range(box[2], box[3] + 1):
                 for n in range(j * row + box[0], j * row + box[1] + 1):
                     inverse = inverse_mass[n]
@@ -524,12 +487,12 @@ def advance_frame(
                     new_vy[n] = 0.0 if fixed_y[n] else node_vy[n] + dt * ay
             # g2p: FLIP velocities (blended with PIC), positions with the new nodal velocities
             if spline:
-                _g2p(9, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
+                _g2p(3, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
             else:
-                _g2p(4, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
+                _g2p(2, p0, count, row, base, factors, node_ax, node_ay, new_vx, new_vy, dt, pic_blend, x, y, vx, vy)
 
 
-@njit(cache=True)
+@njit(fastmath=FAST, cache=True)
 def frame_summary(
     x,
     y,
