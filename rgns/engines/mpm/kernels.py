@@ -113,7 +113,7 @@ def _weight(factors, r, c, q):
 
 @njit(fastmath=FAST, cache=True, inline="always")
 def _gradient(factors, r, c, q, inverse_h):
-    """Slot (r, c)'s weight gradient of particle q: (wy·∂wx, ∂wy·wx) / h, as the torch basis forms it."""
+    """Slot (r, c)'s weight gradient of particle q: (wy·∂wx, ∂wy·wx) / h, the division a product by ``inverse_h``."""
     return factors[6 + r, q] * factors[3 + c, q] * inverse_h, factors[9 + r, q] * factors[c, q] * inverse_h
 
 
