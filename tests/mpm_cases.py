@@ -51,3 +51,38 @@ def polygon_case(
     )
     write_case(directory, scene, field.friction_deg, settings)
     return read_case(directory)
+
+
+SWEEP_ANGLES_DEG = (30.0, 60.0, 90.0)
+SWEEP_FRICTIONS_DEG = (15.0, 30.0, 45.0)
+
+
+def stiffness_sweep_cases(directory: Path, youngs_modulus_pa: float) -> list[Case]:
+    """The stability sweep at one stiffness: a slope 4 m high at each of SWEEP_ANGLES_DEG and each friction of
+    SWEEP_FRICTIONS_DEG, 1 m cells, one batch."""
+    height, cases = 4.0, []
+    for angle in SWEEP_ANGLES_DEG:
+        toe = 4.0 + height / np.tan(np.radians(angle))
+        for phi in SWEEP_FRICTIONS_DEG:
+            vertices = [[0, 0], [toe, 0], [4.0, height], [0, height]]
+            cases.append(
+                polygon_case(
+                    directory / f"{angle}_{phi}",
+                    vertices,
+                    24.0,
+                    6.0,
+                    cell_size_m=1.0,
+                    friction_deg=phi,
+                    index=len(cases),
+                    youngs_modulus_pa=youngs_modulus_pa,
+                )
+            )
+    return cases
+
+
+def cfl_sweep_case(directory: Path, cell_size_m: float) -> tuple[Case, float]:
+    """The time-step sweep's slope: 60 degrees, four cells (at least 4 m) high, friction 25 degrees; and its toe."""
+    height = max(4.0, 4 * cell_size_m)
+    toe = 4.0 + height / np.tan(np.radians(60.0))
+    vertices = [[0, 0], [toe, 0], [4.0, height], [0, height]]
+    return polygon_case(directory, vertices, 32.0, height + 2.0, cell_size_m=cell_size_m, friction_deg=25.0), toe

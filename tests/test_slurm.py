@@ -40,7 +40,7 @@ def site_profile(directory, partition: str) -> dict:
         "cores": 2,
         "latency-wait": 5,
         "slurm-status-command": "squeue",
-        "slurm-init-seconds-before-status-checks": 5,
+        "slurm-init-seconds-before-status-checks": 1,
     }
     directory.mkdir(parents=True, exist_ok=True)
     (directory / "config.yaml").write_text(yaml.safe_dump(profile))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from mpm_cases import ELASTIC, polygon_case
+from mpm_cases import ELASTIC, cfl_sweep_case, polygon_case, stiffness_sweep_cases
 
 from rgns.config import ConfigError, load_config, validate_config
 from rgns.engines.mpm.solver import EngineSettings, run_batch
@@ -92,6 +92,22 @@ def test_a_damped_column_with_a_tension_cutoff_agrees_on_both_backends_within_th
     for name in ("positions", "final_stress"):
         spread = np.abs(getattr(nudged, name) - getattr(reference, name)).max()
         assert np.abs(getattr(kernels, name) - getattr(reference, name)).max() <= spread, name
+
+
+def test_the_stability_sweeps_stiffest_soil_agrees_on_both_backends(tmp_path):
+    """The stiffness sweep of tests/engines/test_mpm_physics.py at its stiffest, 1e8 Pa (the shortest steps: about
+    2,800 in 2 s), all nine slopes in one batch, each at its own step; seven of them fail, moving 0.6 to 7 m."""
+    kernels, reference = both(stiffness_sweep_cases(tmp_path, 1e8), 2.0, early_stop=False)
+    assert_same_runs(kernels, reference)
+
+
+@pytest.mark.parametrize("cell_size_m", [0.5, 2.0])
+def test_the_time_step_sweep_at_the_cfl_limit_agrees_on_both_backends(tmp_path, cell_size_m):
+    """The time-step sweep of tests/engines/test_mpm_physics.py at cfl 1.0, its longest step (800 steps in 2 s),
+    the slope failing and running out metres past its toe."""
+    case, _ = cfl_sweep_case(tmp_path, cell_size_m)
+    kernels, reference = both([case], 2.0, early_stop=False, cfl=1.0)
+    assert_same_runs(kernels, reference)
 
 
 def test_auto_picks_the_kernels_on_the_cpu_in_float64_and_torch_otherwise():
