@@ -176,7 +176,7 @@ def test_column_collapse_runout_is_shorter_with_higher_friction(column_collapse)
 
 # The two stability sweeps run on the default engine, the kernels; the torch engine runs the same algorithm and is
 # held to the kernels' steps, statuses, positions and energies on the sweeps' hardest settings (the stiffest soil,
-# the CFL limit) in tests/engines/test_mpm_backends.py, where a 2 s window costs it a tenth of these 20 s sweeps.
+# cfl 1.0) in tests/engines/test_mpm_backends.py, where a 2 s window costs it a tenth of these 20 s sweeps.
 
 
 @pytest.mark.parametrize("youngs_modulus_pa", [1e6, 1e7, 1e8])
